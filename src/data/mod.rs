@@ -1,0 +1,1 @@
+//! Dataset layouts, synthetic data and correspondence files.

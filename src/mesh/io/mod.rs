@@ -1,0 +1,1 @@
+//! Mesh file formats (owned by the mesh-I/O work; see module docs there).

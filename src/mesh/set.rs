@@ -1,0 +1,1 @@
+//! Mesh sets: shared connectivity detection and consistent winding.

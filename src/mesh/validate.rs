@@ -1,0 +1,1 @@
+//! Defect report for one mesh.
