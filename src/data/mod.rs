@@ -1,1 +1,28 @@
 //! Dataset layouts, synthetic data and correspondence files.
+
+use std::path::PathBuf;
+
+/// The development data folder `../shared/data` beside the repository (or the
+/// folder named by `DEFORMLAB_SHARED_DATA`), if it exists. Tests that need
+/// real meshes call this and skip, saying why, when it returns `None`.
+pub fn shared_data_dir() -> Option<PathBuf> {
+    let dir = match std::env::var_os("DEFORMLAB_SHARED_DATA") {
+        Some(d) => PathBuf::from(d),
+        None => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data"),
+    };
+    dir.is_dir().then_some(dir)
+}
+
+/// Like [`shared_data_dir`] joined with `sub`, printing why a test is skipped
+/// when the folder is absent.
+pub fn shared_data_or_skip(sub: &str, test: &str) -> Option<PathBuf> {
+    match shared_data_dir().map(|d| d.join(sub)) {
+        Some(p) if p.exists() => Some(p),
+        _ => {
+            eprintln!(
+                "SKIP {test}: ../shared/data/{sub} not found (set DEFORMLAB_SHARED_DATA to run it)"
+            );
+            None
+        }
+    }
+}
