@@ -572,7 +572,8 @@ fn files_in(dir: &Path, ext: &str) -> Vec<PathBuf> {
 
 #[test]
 fn real_data_loads() {
-    let cases: [(&str, &str, Option<(usize, usize)>); 6] = [
+    type Case<'a> = (&'a str, &'a str, Option<(usize, usize)>);
+    let cases: [Case; 6] = [
         ("faust", "ply", Some((6890, 13776))),
         ("cactus", "ply", Some((5261, 10518))),
         ("tosca", "off", None),
