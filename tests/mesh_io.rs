@@ -313,11 +313,15 @@ fn ascii_ply_with_extra_properties() {
 fn truncated_binary_ply_is_an_error() {
     let d = tmp();
     let full = binary_ply(true, false);
-    for cut in [full.len() - 3, full.len() - 40, full.len() / 2 + 40] {
+    let header = full.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+    for cut in [full.len() - 3, full.len() - 40, header + 10, header] {
         let p = write(d.path(), "trunc.ply", &full[..cut]);
         let e = read_raw(&p).expect_err("truncated").to_string();
         assert!(e.contains("trunc.ply") && e.contains("element"), "{e}");
     }
+    // Cut inside the header.
+    let p = write(d.path(), "trunc.ply", &full[..header / 2]);
+    assert_err(read_raw(&p), &p, &["header"]);
 }
 
 #[test]

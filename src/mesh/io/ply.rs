@@ -112,12 +112,50 @@ fn is_integer(t: &ScalarType) -> bool {
     !matches!(t, ScalarType::Float | ScalarType::Double)
 }
 
+/// `ply-rs-bw` says "Line 3: Couldn't parse line."; append the text of that
+/// header line so the user sees what was wrong.
+fn quote_header_line(path: &Path, message: &str) -> String {
+    let line_no = message
+        .strip_prefix("Line ")
+        .and_then(|r| r.split(':').next())
+        .and_then(|n| n.trim().parse::<usize>().ok());
+    let Some(n) = line_no.filter(|&n| n >= 1) else {
+        return tidy(message);
+    };
+    let mut head = Vec::new();
+    if let Ok(f) = File::open(path) {
+        use std::io::Read;
+        let _ = f.take(1 << 16).read_to_end(&mut head);
+    }
+    let text = String::from_utf8_lossy(&head);
+    match text.lines().nth(n - 1) {
+        Some(l) => {
+            let l: String = l.chars().take(80).collect();
+            let first = message.lines().next().unwrap_or(message);
+            format!("{first} (the line reads '{l}')")
+        }
+        None => tidy(message),
+    }
+}
+
+/// `ply-rs-bw` messages span several lines, some holding parser internals;
+/// keep the informative lines and join them into one.
+fn tidy(message: &str) -> String {
+    message
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && *l != "'" && !l.contains("ParseError {"))
+        .filter(|l| !l.starts_with("Error: failed to fill whole buffer"))
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
 pub(super) fn read_ply(path: &Path) -> Result<RawMesh> {
     let file = File::open(path).map_err(|e| Error::io(path, e))?;
     let mut reader = Reader::new(BufReader::new(file));
     let header = Parser::<Skip>::new()
         .read_header(&mut reader)
-        .map_err(|e| Error::parse(path, "header", e.to_string()))?;
+        .map_err(|e| Error::parse(path, "header", quote_header_line(path, &e.to_string())))?;
 
     // Check the header before reading any data.
     let vdef = header
@@ -174,7 +212,11 @@ pub(super) fn read_ply(path: &Path) -> Result<RawMesh> {
     let mut raw = RawMesh::default();
     for def in header.elements.values() {
         let wrap = |e: ply_rs_bw::parser::ParseError| {
-            Error::parse(path, format!("element '{}'", def.name), e.to_string())
+            Error::parse(
+                path,
+                format!("element '{}'", def.name),
+                tidy(&e.to_string()),
+            )
         };
         match def.name.as_str() {
             "vertex" => {
