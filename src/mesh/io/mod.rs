@@ -4,16 +4,71 @@
 //! Readers return a [`RawMesh`] so that defects can be reported;
 //! [`read_mesh`] also validates into a [`Mesh`]. Every error names the file.
 
+//!
+//! | format | read | write | notes |
+//! |---|---|---|---|
+//! | `.ply` | ascii, binary LE/BE (via `ply-rs-bw`) | binary LE, f64 | any scalar types, extra properties skipped |
+//! | `.off` | text (OFF/COFF/NOFF) | — | zero-based indices |
+//! | `.obj` | `v` and `f` | yes | one-based or negative indices |
+//! | `.vert`+`.tri` | TOSCA text pair | — | one-based `.tri` indices |
+//!
+//! Polygons are fan-triangulated on reading. Counts announced by headers are
+//! never trusted for allocation. Indices beyond the vertex list are kept in the
+//! [`RawMesh`] (so [`super::validate::DefectReport`] can describe them) and
+//! rejected by [`read_mesh`]; anything that cannot be represented (negative or
+//! zero OBJ index, non-number token, data that disagree with header counts)
+//! is an [`Error::Parse`] naming the file and the line or element.
+
+mod obj;
+mod off;
+mod ply;
+mod text;
+mod tosca;
+
 use std::io::Write;
 use std::path::Path;
 
 use super::{Mesh, RawMesh};
 use crate::{Error, Result};
 
+/// Mesh file formats known to [`read_raw`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Ply,
+    Off,
+    Obj,
+    /// TOSCA `.vert` + `.tri` pair.
+    VertTri,
+}
+
+impl Format {
+    /// The format named by the extension of `path` (case-insensitive).
+    pub fn of_path(path: &Path) -> Option<Format> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        Some(match ext.as_str() {
+            "ply" => Format::Ply,
+            "off" => Format::Off,
+            "obj" => Format::Obj,
+            "vert" | "tri" => Format::VertTri,
+            _ => return None,
+        })
+    }
+}
+
 /// Reads any supported format, chosen by extension (`.ply`, `.off`, `.obj`,
-/// `.vert` or `.tri` for a TOSCA pair).
+/// `.vert` or `.tri` for a TOSCA pair; either member of a pair names it).
 pub fn read_raw(path: &Path) -> Result<RawMesh> {
-    Err(Error::parse(path, "file", "reader not implemented yet"))
+    match Format::of_path(path) {
+        Some(Format::Ply) => ply::read_ply(path),
+        Some(Format::Off) => off::read_off(path),
+        Some(Format::Obj) => obj::read_obj(path),
+        Some(Format::VertTri) => tosca::read_vert_tri(path),
+        None => Err(Error::parse(
+            path,
+            "file name",
+            "unknown mesh format (expected extension .ply, .off, .obj, .vert or .tri)",
+        )),
+    }
 }
 
 /// Reads and validates a mesh (indices in range, finite coordinates); errors
@@ -54,6 +109,13 @@ pub fn write_ply(path: &Path, mesh: &Mesh) -> Result<()> {
         }
     }
     write_atomic(path, &buf)
+}
+
+/// Writes a Wavefront OBJ (`v` and one-based `f` lines, coordinates in the
+/// shortest decimal form that reads back to the same `f64`), atomically like
+/// [`write_ply`].
+pub fn write_obj(path: &Path, mesh: &Mesh) -> Result<()> {
+    obj::write_obj(path, mesh)
 }
 
 /// Writes `bytes` to `path` through a temporary file and a rename.

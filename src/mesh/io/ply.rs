@@ -1,0 +1,263 @@
+//! PLY reader (ascii, binary little and big endian) on top of `ply-rs-bw`.
+//!
+//! Why `ply-rs-bw` (v4) rather than a hand-written parser: it reads all three
+//! encodings and every PLY scalar type, reports malformed data as errors with a
+//! line (ascii) or element position (binary) instead of panicking, and caps
+//! the capacity it reserves from header counts (65 536 items), so a header that
+//! announces 4e9 vertices fails at the end of the real data instead of
+//! allocating 4e9 slots. We read through small custom element types
+//! ([`PlyVertex`], [`PlyFace`]) rather than its hash-map elements, and every
+//! error it returns is wrapped to name the file and the element being read.
+//!
+//! Accepted: element `vertex` with scalar properties `x`, `y`, `z` of any type
+//! (float and double in practice); element `face` with an integer list
+//! `vertex_indices` or `vertex_index` (any integer count and index types);
+//! every other property and element is skipped. Polygons are
+//! fan-triangulated; a negative index or a face with fewer than three corners
+//! is an error; an index beyond the vertex count is kept for the defect report.
+
+use std::fs::File;
+use std::io::BufReader;
+use std::path::Path;
+
+use ply_rs_bw::parser::{Parser, Reader};
+use ply_rs_bw::ply::{Property, PropertyAccess, PropertyAccessResult, PropertyType, ScalarType};
+
+use super::text::{capped, fan};
+use crate::mesh::RawMesh;
+use crate::{Error, Point, Result};
+
+/// One vertex as read: coordinates and which of x, y, z were present.
+#[derive(Default)]
+struct PlyVertex {
+    xyz: [f64; 3],
+}
+
+fn scalar_f64(p: &Property) -> Option<f64> {
+    Some(match *p {
+        Property::Char(v) => v as f64,
+        Property::UChar(v) => v as f64,
+        Property::Short(v) => v as f64,
+        Property::UShort(v) => v as f64,
+        Property::Int(v) => v as f64,
+        Property::UInt(v) => v as f64,
+        Property::Float(v) => v as f64,
+        Property::Double(v) => v,
+        _ => return None,
+    })
+}
+
+impl PropertyAccess for PlyVertex {
+    fn new() -> Self {
+        Self::default()
+    }
+    fn set_property(&mut self, name: &str, p: Property) -> PropertyAccessResult {
+        let k = match name {
+            "x" => 0,
+            "y" => 1,
+            "z" => 2,
+            _ => return PropertyAccessResult::Ignored,
+        };
+        match scalar_f64(&p) {
+            Some(v) => {
+                self.xyz[k] = v;
+                PropertyAccessResult::Set
+            }
+            None => PropertyAccessResult::UnsupportedType,
+        }
+    }
+}
+
+/// One face as read: its corner indices (signed, to detect negatives).
+#[derive(Default)]
+struct PlyFace {
+    indices: Vec<i64>,
+}
+
+fn is_index_list_name(name: &str) -> bool {
+    name == "vertex_indices" || name == "vertex_index"
+}
+
+impl PropertyAccess for PlyFace {
+    fn new() -> Self {
+        Self::default()
+    }
+    fn set_property(&mut self, name: &str, p: Property) -> PropertyAccessResult {
+        if !is_index_list_name(name) {
+            return PropertyAccessResult::Ignored;
+        }
+        self.indices = match p {
+            Property::ListChar(v) => v.into_iter().map(i64::from).collect(),
+            Property::ListUChar(v) => v.into_iter().map(i64::from).collect(),
+            Property::ListShort(v) => v.into_iter().map(i64::from).collect(),
+            Property::ListUShort(v) => v.into_iter().map(i64::from).collect(),
+            Property::ListInt(v) => v.into_iter().map(i64::from).collect(),
+            Property::ListUInt(v) => v.into_iter().map(i64::from).collect(),
+            _ => return PropertyAccessResult::UnsupportedType,
+        };
+        PropertyAccessResult::Set
+    }
+}
+
+/// An element we do not use: every property is read and dropped.
+struct Skip;
+
+impl PropertyAccess for Skip {
+    fn new() -> Self {
+        Skip
+    }
+}
+
+fn is_integer(t: &ScalarType) -> bool {
+    !matches!(t, ScalarType::Float | ScalarType::Double)
+}
+
+/// `ply-rs-bw` says "Line 3: Couldn't parse line."; append the text of that
+/// header line so the user sees what was wrong.
+fn quote_header_line(path: &Path, message: &str) -> String {
+    let line_no = message
+        .strip_prefix("Line ")
+        .and_then(|r| r.split(':').next())
+        .and_then(|n| n.trim().parse::<usize>().ok());
+    let Some(n) = line_no.filter(|&n| n >= 1) else {
+        return tidy(message);
+    };
+    let mut head = Vec::new();
+    if let Ok(f) = File::open(path) {
+        use std::io::Read;
+        let _ = f.take(1 << 16).read_to_end(&mut head);
+    }
+    let text = String::from_utf8_lossy(&head);
+    match text.lines().nth(n - 1) {
+        Some(l) => {
+            let l: String = l.chars().take(80).collect();
+            let first = message.lines().next().unwrap_or(message);
+            format!("{first} (the line reads '{l}')")
+        }
+        None => tidy(message),
+    }
+}
+
+/// `ply-rs-bw` messages span several lines, some holding parser internals;
+/// keep the informative lines and join them into one.
+fn tidy(message: &str) -> String {
+    message
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && *l != "'" && !l.contains("ParseError {"))
+        .filter(|l| !l.starts_with("Error: failed to fill whole buffer"))
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+pub(super) fn read_ply(path: &Path) -> Result<RawMesh> {
+    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut reader = Reader::new(BufReader::new(file));
+    let header = Parser::<Skip>::new()
+        .read_header(&mut reader)
+        .map_err(|e| Error::parse(path, "header", quote_header_line(path, &e.to_string())))?;
+
+    // Check the header before reading any data.
+    let vdef = header
+        .elements
+        .get("vertex")
+        .ok_or_else(|| Error::parse(path, "header", "no 'vertex' element declared"))?;
+    for c in ["x", "y", "z"] {
+        match vdef.properties.get(c).map(|p| &p.data_type) {
+            Some(PropertyType::Scalar(_)) => {}
+            Some(PropertyType::List(..)) => {
+                return Err(Error::parse(
+                    path,
+                    "header",
+                    format!("vertex property '{c}' is a list, expected a number"),
+                ))
+            }
+            None => {
+                return Err(Error::parse(
+                    path,
+                    "header",
+                    format!("vertex element has no '{c}' property"),
+                ))
+            }
+        }
+    }
+    if let Some(fdef) = header.elements.get("face") {
+        let list = fdef
+            .properties
+            .values()
+            .find(|p| is_index_list_name(&p.name))
+            .ok_or_else(|| {
+                Error::parse(
+                    path,
+                    "header",
+                    "face element has no 'vertex_indices' or 'vertex_index' property",
+                )
+            })?;
+        match &list.data_type {
+            PropertyType::List(count, index) if is_integer(count) && is_integer(index) => {}
+            other => {
+                return Err(Error::parse(
+                    path,
+                    "header",
+                    format!(
+                        "face property '{}' must be a list of integers with an integer count, \
+                         declared as {other:?}",
+                        list.name
+                    ),
+                ))
+            }
+        }
+    }
+
+    let mut raw = RawMesh::default();
+    for def in header.elements.values() {
+        let wrap = |e: ply_rs_bw::parser::ParseError| {
+            Error::parse(
+                path,
+                format!("element '{}'", def.name),
+                tidy(&e.to_string()),
+            )
+        };
+        match def.name.as_str() {
+            "vertex" => {
+                let vs = Parser::<PlyVertex>::new()
+                    .read_payload_for_element(&mut reader, def, &header)
+                    .map_err(wrap)?;
+                raw.vertices = vs
+                    .into_iter()
+                    .map(|v| Point::new(v.xyz[0], v.xyz[1], v.xyz[2]))
+                    .collect();
+            }
+            "face" => {
+                let fs = Parser::<PlyFace>::new()
+                    .read_payload_for_element(&mut reader, def, &header)
+                    .map_err(wrap)?;
+                raw.faces = Vec::with_capacity(capped(fs.len()));
+                let mut polygon = Vec::new();
+                for (i, f) in fs.iter().enumerate() {
+                    if f.indices.len() < 3 {
+                        return Err(Error::parse(
+                            path,
+                            format!("face {i}"),
+                            format!("{} corners; at least 3 are needed", f.indices.len()),
+                        ));
+                    }
+                    polygon.clear();
+                    for &k in &f.indices {
+                        let k = usize::try_from(k).map_err(|_| {
+                            Error::parse(path, format!("face {i}"), format!("negative index {k}"))
+                        })?;
+                        polygon.push(k);
+                    }
+                    fan(&polygon, &mut raw.faces);
+                }
+            }
+            _ => {
+                Parser::<Skip>::new()
+                    .read_payload_for_element(&mut reader, def, &header)
+                    .map_err(wrap)?;
+            }
+        }
+    }
+    Ok(raw)
+}

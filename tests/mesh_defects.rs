@@ -1,0 +1,400 @@
+//! Defect report: every planted defect is counted exactly; primitives are
+//! clean with the right topology; real data defects are found.
+
+use deformlab::data::shared_data_or_skip;
+use deformlab::mesh::io::read_raw;
+use deformlab::mesh::primitives::{grid, icosphere, torus};
+use deformlab::mesh::validate::{DefectReport, LIST_CAP};
+use deformlab::mesh::{Face, Mesh, RawMesh};
+use deformlab::Point;
+
+fn p(x: f64, y: f64, z: f64) -> Point {
+    Point::new(x, y, z)
+}
+
+/// A closed, consistently (outward) wound tetrahedron.
+fn tetra() -> RawMesh {
+    RawMesh {
+        vertices: vec![
+            p(0.0, 0.0, 0.0),
+            p(1.0, 0.0, 0.0),
+            p(0.0, 1.0, 0.0),
+            p(0.0, 0.0, 1.0),
+        ],
+        faces: vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
+    }
+}
+
+fn with_faces(mut m: RawMesh, extra: &[Face]) -> RawMesh {
+    m.faces.extend_from_slice(extra);
+    m
+}
+
+/// Counts of every defect list, in a fixed order, for compact assertions:
+/// [out_of_range, non_finite, repeated, zero_area, duplicate, unreferenced,
+///  boundary, non_manifold_edges, non_manifold_vertices, inconsistent].
+fn counts(r: &DefectReport) -> [usize; 10] {
+    [
+        r.out_of_range_faces.count,
+        r.non_finite_vertices.count,
+        r.repeated_index_faces.count,
+        r.zero_area_faces.count,
+        r.duplicate_faces.count,
+        r.unreferenced_vertices.count,
+        r.boundary_edges.count,
+        r.non_manifold_edges.count,
+        r.non_manifold_vertices.count,
+        r.inconsistent_edges.count,
+    ]
+}
+
+#[test]
+fn tetrahedron_is_clean() {
+    let r = DefectReport::of(&tetra());
+    assert!(r.is_clean(), "{r}");
+    assert_eq!(counts(&r), [0; 10]);
+    assert_eq!((r.n_vertices, r.n_faces, r.n_edges), (4, 4, 6));
+    assert_eq!(r.euler_characteristic, 2);
+    assert_eq!(r.genus(), Some(0));
+    assert_eq!(r.components.len(), 1);
+    assert_eq!(r.components[0].faces_to_flip, Some(0));
+}
+
+#[test]
+fn primitives_are_clean_with_right_topology() {
+    for level in 0..4 {
+        let r = DefectReport::of_mesh(&icosphere(level));
+        assert!(r.is_clean(), "{r}");
+        assert_eq!(r.euler_characteristic, 2);
+        assert_eq!(r.genus(), Some(0));
+    }
+    for (nu, nv) in [(3, 3), (12, 8), (40, 17)] {
+        let r = DefectReport::of_mesh(&torus(2.0, 0.5, nu, nv));
+        assert!(r.is_clean(), "{r}");
+        assert_eq!(r.euler_characteristic, 0);
+        assert_eq!(r.genus(), Some(1));
+        assert_eq!(r.components.len(), 1);
+    }
+    // An open grid: one boundary loop, a disk.
+    let r = DefectReport::of_mesh(&grid(4, 3));
+    assert!(!r.is_clean() && r.is_clean_ignoring_boundary(), "{r}");
+    assert_eq!(r.boundary_edges.count, 2 * (4 + 3));
+    let c = &r.components[0];
+    assert_eq!(
+        (c.euler_characteristic, c.boundary_loops, c.genus),
+        (1, 1, Some(0))
+    );
+}
+
+#[test]
+fn two_components_sum_up() {
+    let s = icosphere(1);
+    let t = torus(2.0, 0.5, 10, 6);
+    let n = s.n_vertices();
+    let mut vertices = s.vertices().to_vec();
+    vertices.extend(t.vertices().iter().map(|q| p(q.x + 10.0, q.y, q.z)));
+    let mut faces = s.faces().to_vec();
+    faces.extend(t.faces().iter().map(|f| [f[0] + n, f[1] + n, f[2] + n]));
+    let r = DefectReport::of(&RawMesh { vertices, faces });
+    assert!(r.is_clean(), "{r}");
+    assert_eq!(r.components.len(), 2);
+    assert_eq!(r.euler_characteristic, 2);
+    assert_eq!(r.genus(), Some(1));
+    assert_eq!(r.components[1].first_face, s.n_faces());
+}
+
+#[test]
+fn out_of_range_faces() {
+    let m = with_faces(tetra(), &[[0, 1, 9], [7, 8, 9]]);
+    let r = DefectReport::of(&m);
+    assert_eq!(counts(&r), [2, 0, 0, 0, 0, 0, 0, 0, 0, 0]);
+    assert_eq!(r.out_of_range_faces.first, vec![4, 5]);
+    assert!(!r.is_loadable() && !r.is_clean());
+    // Out-of-range faces are left out of the topology.
+    assert_eq!(r.genus(), Some(0));
+}
+
+#[test]
+fn non_finite_vertices() {
+    let mut m = tetra();
+    m.vertices[3].y = f64::NAN;
+    m.vertices[1].x = f64::INFINITY;
+    let r = DefectReport::of(&m);
+    assert_eq!(counts(&r), [0, 2, 0, 0, 0, 0, 0, 0, 0, 0]);
+    assert_eq!(r.non_finite_vertices.first, vec![1, 3]);
+    assert!(!r.is_loadable());
+}
+
+#[test]
+fn zero_area_faces() {
+    let m = RawMesh {
+        vertices: vec![
+            p(0.0, 0.0, 0.0),
+            p(1.0, 0.0, 0.0),
+            p(2.0, 0.0, 0.0),   // collinear with 0, 1
+            p(0.5, 1e-12, 0.0), // needle apex, height 1e-12
+            p(0.5, 1e-4, 0.0),  // thin but not degenerate
+            p(5.0, 5.0, 5.0),   // three coincident points
+            p(5.0, 5.0, 5.0),
+            p(5.0, 5.0, 5.0),
+        ],
+        faces: vec![[0, 1, 2], [0, 1, 3], [0, 1, 4], [5, 6, 7]],
+    };
+    let r = DefectReport::of(&m);
+    assert_eq!(r.zero_area_faces.count, 3, "{r}");
+    assert_eq!(r.zero_area_faces.first, vec![0, 1, 3]);
+    assert_eq!(r.repeated_index_faces.count, 0);
+    assert_eq!(r.duplicate_faces.count, 0);
+    assert_eq!(r.unreferenced_vertices.count, 0);
+    // The scale does not matter: the threshold is relative.
+    let tiny = RawMesh {
+        vertices: m
+            .vertices
+            .iter()
+            .map(|q| Point::from(q.coords * 1e-9))
+            .collect(),
+        faces: m.faces.clone(),
+    };
+    assert_eq!(DefectReport::of(&tiny).zero_area_faces.first, vec![0, 1, 3]);
+}
+
+#[test]
+fn repeated_index_faces() {
+    let m = with_faces(tetra(), &[[0, 0, 1], [2, 3, 3]]);
+    let r = DefectReport::of(&m);
+    assert_eq!(counts(&r), [0, 0, 2, 0, 0, 0, 0, 0, 0, 0]);
+    assert_eq!(r.repeated_index_faces.first, vec![4, 5]);
+    assert_eq!(r.genus(), Some(0));
+}
+
+#[test]
+fn duplicate_faces() {
+    // Face 0 is [0, 2, 1]; plant a copy in the same and in reversed winding.
+    let m = with_faces(tetra(), &[[2, 1, 0], [1, 2, 0]]);
+    let r = DefectReport::of(&m);
+    assert_eq!(r.duplicate_faces.count, 2, "{r}");
+    assert_eq!(r.duplicate_faces.first, vec![4, 5]);
+    // The three edges of face 0 are now used four times each.
+    assert_eq!(r.non_manifold_edges.count, 3);
+    assert_eq!(r.non_manifold_edges.first, vec![[0, 1], [0, 2], [1, 2]]);
+    assert_eq!(r.components[0].genus, None);
+}
+
+#[test]
+fn unreferenced_vertices() {
+    let mut m = tetra();
+    m.vertices.push(p(3.0, 3.0, 3.0));
+    m.vertices.insert(0, p(-3.0, 3.0, 3.0));
+    for f in &mut m.faces {
+        for v in f.iter_mut() {
+            *v += 1;
+        }
+    }
+    let r = DefectReport::of(&m);
+    assert_eq!(counts(&r), [0, 0, 0, 0, 0, 2, 0, 0, 0, 0]);
+    assert_eq!(r.unreferenced_vertices.first, vec![0, 5]);
+    assert_eq!(r.euler_characteristic, 2);
+}
+
+#[test]
+fn boundary_edges() {
+    let mut m = tetra();
+    m.faces.remove(2); // [1, 2, 3]
+    let r = DefectReport::of(&m);
+    assert_eq!(counts(&r), [0, 0, 0, 0, 0, 0, 3, 0, 0, 0]);
+    assert_eq!(r.boundary_edges.first, vec![[1, 2], [1, 3], [2, 3]]);
+    let c = &r.components[0];
+    assert_eq!(
+        (c.euler_characteristic, c.boundary_loops, c.genus),
+        (1, 1, Some(0))
+    );
+}
+
+#[test]
+fn non_manifold_edge() {
+    // Three triangles on the edge 0-1 (a "book" with three pages).
+    let m = RawMesh {
+        vertices: vec![
+            p(0.0, 0.0, 0.0),
+            p(1.0, 0.0, 0.0),
+            p(0.5, 1.0, 0.0),
+            p(0.5, -1.0, 0.0),
+            p(0.5, 0.0, 1.0),
+        ],
+        faces: vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]],
+    };
+    let r = DefectReport::of(&m);
+    assert_eq!(counts(&r), [0, 0, 0, 0, 0, 0, 6, 1, 2, 0], "{r}");
+    assert_eq!(r.non_manifold_edges.first, vec![[0, 1]]);
+    assert_eq!(r.non_manifold_vertices.first, vec![0, 1]);
+    let c = &r.components[0];
+    assert!(!c.manifold);
+    assert_eq!((c.orientable, c.genus), (None, None));
+    assert_eq!(r.genus(), None);
+}
+
+#[test]
+fn non_manifold_vertex_bow_tie() {
+    // Two closed tetrahedra sharing the vertex 0 only.
+    let t = tetra();
+    let mut vertices = t.vertices.clone();
+    vertices.extend([p(0.0, -1.0, 0.0), p(-1.0, 0.0, 0.0), p(0.0, 0.0, -1.0)]);
+    let mut faces = t.faces.clone();
+    faces.extend(
+        t.faces
+            .iter()
+            .map(|f| f.map(|v| if v == 0 { 0 } else { v + 3 })),
+    );
+    let r = DefectReport::of(&RawMesh { vertices, faces });
+    assert_eq!(counts(&r), [0, 0, 0, 0, 0, 0, 0, 0, 1, 0], "{r}");
+    assert_eq!(r.non_manifold_vertices.first, vec![0]);
+    assert_eq!(r.components.len(), 1);
+    assert!(!r.components[0].manifold);
+    // χ = 7 − 12 + 8 = 3: no genus for a pinched surface.
+    assert_eq!(r.euler_characteristic, 3);
+    assert_eq!(r.genus(), None);
+}
+
+#[test]
+fn inconsistent_winding() {
+    let mut m = tetra();
+    m.faces[2] = [1, 3, 2];
+    let r = DefectReport::of(&m);
+    assert_eq!(counts(&r), [0, 0, 0, 0, 0, 0, 0, 0, 0, 3], "{r}");
+    assert_eq!(r.inconsistent_edges.first, vec![[1, 2], [1, 3], [2, 3]]);
+    let c = &r.components[0];
+    assert_eq!(
+        (c.orientable, c.faces_to_flip, c.genus),
+        (Some(true), Some(1), Some(0))
+    );
+    assert!(!r.is_clean());
+
+    // Many flipped faces on a torus: the fewest flips is found.
+    let t = torus(2.0, 0.5, 10, 6);
+    let mut faces = t.faces().to_vec();
+    for f in faces.iter_mut().step_by(7) {
+        f.swap(1, 2);
+    }
+    let flipped = faces.len().div_ceil(7);
+    let r = DefectReport::of(&RawMesh {
+        vertices: t.vertices().to_vec(),
+        faces,
+    });
+    assert_eq!(r.components[0].faces_to_flip, Some(flipped));
+    assert_eq!(r.genus(), Some(1));
+}
+
+#[test]
+fn mobius_strip_is_not_orientable() {
+    let n = 12;
+    let mut vertices = Vec::new();
+    for i in 0..n {
+        let u = std::f64::consts::TAU * i as f64 / n as f64;
+        for s in [-0.3, 0.3] {
+            let r = 1.0 + s * (u / 2.0).cos();
+            vertices.push(p(r * u.cos(), r * u.sin(), s * (u / 2.0).sin()));
+        }
+    }
+    let mut faces: Vec<Face> = Vec::new();
+    for i in 0..n {
+        let (a, b) = (2 * i, 2 * i + 1);
+        // The last strip connects to the first with the sides swapped.
+        let (c, d) = if i + 1 < n {
+            (2 * i + 2, 2 * i + 3)
+        } else {
+            (1, 0)
+        };
+        faces.push([a, b, d]);
+        faces.push([a, d, c]);
+    }
+    let r = DefectReport::of(&RawMesh { vertices, faces });
+    let c = &r.components[0];
+    assert!(c.manifold, "{r}");
+    assert_eq!(c.orientable, Some(false));
+    assert_eq!((c.faces_to_flip, c.genus), (None, None));
+    assert_eq!(c.boundary_loops, 1);
+    assert_eq!(r.euler_characteristic, 0);
+    assert!(!r.is_clean_ignoring_boundary());
+}
+
+#[test]
+fn lists_are_capped_and_display_is_readable() {
+    let g = grid(20, 20);
+    let mut m: RawMesh = g.into();
+    m.faces.extend((0..15).map(|i| [i, i, i + 1]));
+    let r = DefectReport::of(&m);
+    assert_eq!(r.repeated_index_faces.count, 15);
+    assert_eq!(r.repeated_index_faces.first.len(), LIST_CAP);
+    let s = r.to_string();
+    for needle in [
+        "441 vertices",
+        "faces with repeated vertex",
+        "boundary edges",
+        "80",
+        "800 801 802 803 804 805 806 807 808 809 …",
+        "…",
+        "genus",
+    ] {
+        assert!(s.contains(needle), "missing '{needle}' in\n{s}");
+    }
+}
+
+#[test]
+fn real_data_reports() {
+    let Some(dir) = shared_data_or_skip("sumner/horse-camel", "real_data_reports") else {
+        return;
+    };
+    let camel = read_raw(&dir.join("camel_ref.obj")).unwrap();
+    let r = DefectReport::of(&camel);
+    println!("camel_ref.obj\n{r}");
+    assert!(r.non_manifold_edges.count > 0, "{r}");
+    assert!(r.is_loadable());
+    let horse = Mesh::try_from(read_raw(&dir.join("horse_ref.obj")).unwrap()).unwrap();
+    let r = DefectReport::of_mesh(&horse);
+    println!("horse_ref.obj\n{r}");
+    assert_eq!(r.non_manifold_edges.count, 0);
+}
+
+/// One line per real file (run with `--nocapture` to read them). Asserts the
+/// facts the data README states.
+#[test]
+fn real_data_survey() {
+    let Some(root) = deformlab::data::shared_data_dir() else {
+        eprintln!("SKIP real_data_survey: ../shared/data not found");
+        return;
+    };
+    for sub in [
+        "faust",
+        "cactus",
+        "tosca",
+        "sumner/cat-lion",
+        "sumner/horse-camel",
+        "armadillo",
+    ] {
+        let dir = root.join(sub);
+        let Ok(entries) = std::fs::read_dir(&dir) else {
+            eprintln!("SKIP {sub}: absent");
+            continue;
+        };
+        let mut files: Vec<_> = entries
+            .map(|e| e.unwrap().path())
+            .filter(|p| deformlab::mesh::io::Format::of_path(p).is_some())
+            .collect();
+        files.sort();
+        for f in files {
+            let r = DefectReport::of(&read_raw(&f).unwrap());
+            println!(
+                "{sub}/{}: {}",
+                f.file_name().unwrap().to_str().unwrap(),
+                r.summary()
+            );
+            assert!(r.is_loadable());
+            if sub == "faust" {
+                assert!(r.is_clean_ignoring_boundary(), "{}", r.summary());
+            }
+            if f.ends_with("camel_ref.obj") {
+                assert!(r.non_manifold_edges.count > 0);
+            }
+        }
+    }
+}
