@@ -42,7 +42,7 @@ fn corner_cotangents(mesh: &Mesh) -> Vec<Option<[f64; 3]>> {
             let longest = (0..3)
                 .map(|k| (p[(k + 1) % 3] - p[k]).norm_squared())
                 .fold(0.0, f64::max);
-            if !(cross2 >= DEGENERATE_REL * longest) || longest == 0.0 {
+            if cross2.is_nan() || cross2 < DEGENERATE_REL * longest || longest == 0.0 {
                 return None;
             }
             let mut c = [0.0; 3];
@@ -111,8 +111,8 @@ pub fn mass_matrix(mesh: &Mesh, kind: MassKind) -> Vec<f64> {
             }
             MassKind::Voronoi => {
                 if let Some(obtuse) = (0..3).find(|&k| cot[k] < 0.0) {
-                    for k in 0..3 {
-                        m[f[k]] += if k == obtuse { area / 2.0 } else { area / 4.0 };
+                    for (k, &fk) in f.iter().enumerate() {
+                        m[fk] += if k == obtuse { area / 2.0 } else { area / 4.0 };
                     }
                 } else {
                     for k in 0..3 {
