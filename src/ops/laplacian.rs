@@ -115,13 +115,13 @@ pub fn mass_matrix(mesh: &Mesh, kind: MassKind) -> Vec<f64> {
                         m[fk] += if k == obtuse { area / 2.0 } else { area / 4.0 };
                     }
                 } else {
-                    for k in 0..3 {
+                    for (k, &cot_k) in cot.iter().enumerate() {
                         // Edge opposite corner k joins k+1 and k+2; each end
                         // gets |e|² cot_k / 8.
                         let (a, b) = ((k + 1) % 3, (k + 2) % 3);
                         let e2 = (p[b] - p[a]).norm_squared();
-                        m[f[a]] += e2 * cot[k] / 8.0;
-                        m[f[b]] += e2 * cot[k] / 8.0;
+                        m[f[a]] += e2 * cot_k / 8.0;
+                        m[f[b]] += e2 * cot_k / 8.0;
                     }
                 }
             }
