@@ -1,0 +1,111 @@
+//! `deformlab inspect`: defect tables and a set summary.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use deformlab::mesh::io::{read_raw, Format};
+use deformlab::mesh::set::ConnectivityReport;
+use deformlab::mesh::validate::DefectReport;
+use deformlab::{Error, Mesh, Result};
+
+/// Expands folders into the mesh files they hold (sorted); files are kept as
+/// given. A `.tri` beside a `.vert` is not listed twice.
+fn expand(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let mut files: Vec<PathBuf> = std::fs::read_dir(p)
+                .map_err(|e| Error::io(p, e))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|f| {
+                    f.is_file()
+                        && Format::of_path(f).is_some()
+                        && f.extension().and_then(|e| e.to_str()) != Some("tri")
+                })
+                .collect();
+            files.sort();
+            out.extend(files);
+        } else if p.exists() {
+            out.push(p.clone());
+        } else {
+            return Err(Error::io(
+                p,
+                std::io::Error::new(std::io::ErrorKind::NotFound, "no such file or folder"),
+            ));
+        }
+    }
+    Ok(out)
+}
+
+pub fn run(paths: &[PathBuf], brief: bool) -> Result<ExitCode> {
+    let files = expand(paths)?;
+    let mut failed = 0usize;
+    let mut loaded: Vec<(PathBuf, Mesh)> = Vec::new();
+    for path in &files {
+        match read_raw(path) {
+            Err(e) => {
+                failed += 1;
+                println!("{}: UNREADABLE: {e}", path.display());
+            }
+            Ok(raw) => {
+                let report = DefectReport::of(&raw);
+                if brief {
+                    println!("{}: {}", path.display(), report.summary());
+                } else {
+                    println!("== {}", path.display());
+                    print!("{report}");
+                    println!();
+                }
+                if report.is_loadable() {
+                    if let Ok(m) = Mesh::try_from(raw) {
+                        loaded.push((path.clone(), m));
+                    }
+                }
+            }
+        }
+    }
+    print_set_summary(&loaded, files.len(), failed);
+    Ok(if failed == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
+}
+
+/// Groups meshes by vertex count (only meshes of equal size can share
+/// connectivity) and compares connectivity within each group against its
+/// first member.
+fn print_set_summary(loaded: &[(PathBuf, Mesh)], n_files: usize, failed: usize) {
+    println!(
+        "== set summary: {n_files} file(s), {} loaded, {failed} unreadable",
+        loaded.len()
+    );
+    let mut groups: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for (i, (_, m)) in loaded.iter().enumerate() {
+        groups.entry(m.n_vertices()).or_default().push(i);
+    }
+    for (nv, members) in groups {
+        let names: Vec<String> = members
+            .iter()
+            .enumerate()
+            .map(|(k, &i)| format!("[{k}] {}", short(&loaded[i].0)))
+            .collect();
+        if members.len() == 1 {
+            println!("-- {nv} vertices: {} (alone)", names[0]);
+            continue;
+        }
+        let meshes: Vec<Mesh> = members.iter().map(|&i| loaded[i].1.clone()).collect();
+        let report = ConnectivityReport::of(&meshes);
+        println!("-- {nv} vertices: {}", names.join(" "));
+        for line in report.to_string().lines() {
+            println!("   {line}");
+        }
+    }
+}
+
+fn short(p: &Path) -> String {
+    p.file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_else(|| p.display().to_string())
+}
