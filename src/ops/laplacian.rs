@@ -42,7 +42,9 @@ fn corner_cotangents(mesh: &Mesh) -> Vec<Option<[f64; 3]>> {
             let longest = (0..3)
                 .map(|k| (p[(k + 1) % 3] - p[k]).norm_squared())
                 .fold(0.0, f64::max);
-            if !(cross2 >= DEGENERATE_REL * longest) || longest == 0.0 {
+            // Written so that a NaN area also counts as degenerate.
+            let keep = cross2 >= DEGENERATE_REL * longest && longest != 0.0;
+            if !keep {
                 return None;
             }
             let mut c = [0.0; 3];
@@ -115,13 +117,13 @@ pub fn mass_matrix(mesh: &Mesh, kind: MassKind) -> Vec<f64> {
                         m[f[k]] += if k == obtuse { area / 2.0 } else { area / 4.0 };
                     }
                 } else {
-                    for k in 0..3 {
+                    for (k, &cot_k) in cot.iter().enumerate() {
                         // Edge opposite corner k joins k+1 and k+2; each end
                         // gets |e|² cot_k / 8.
                         let (a, b) = ((k + 1) % 3, (k + 2) % 3);
                         let e2 = (p[b] - p[a]).norm_squared();
-                        m[f[a]] += e2 * cot[k] / 8.0;
-                        m[f[b]] += e2 * cot[k] / 8.0;
+                        m[f[a]] += e2 * cot_k / 8.0;
+                        m[f[b]] += e2 * cot_k / 8.0;
                     }
                 }
             }
