@@ -14,6 +14,7 @@
 pub mod adjacency;
 pub mod laplacian;
 pub mod normals;
+pub mod rotation;
 pub mod topology;
 
 pub use adjacency::{
@@ -22,4 +23,5 @@ pub use adjacency::{
 };
 pub use laplacian::{cotan_laplacian, cotan_weights, mass_matrix, MassKind};
 pub use normals::{face_normals, vertex_area_normals, vertex_normals};
+pub use rotation::{polar_decomposition, rotation_exp, rotation_log, scale_shear_vector, Polar};
 pub use topology::{edges, face_areas, total_area};
