@@ -12,6 +12,7 @@
 //! sampling ([`sampling`]) and unit-sphere normalisation ([`normalize`]).
 
 pub mod adjacency;
+pub mod gradient;
 pub mod laplacian;
 pub mod normals;
 pub mod rotation;
@@ -21,6 +22,7 @@ pub use adjacency::{
     boundary_edges, boundary_vertices, edge_faces, is_closed, vertex_faces, vertex_neighbours, Csr,
     EdgeFaces,
 };
+pub use gradient::{deformation_features, deformation_gradients, DeformationFeatures};
 pub use laplacian::{cotan_laplacian, cotan_weights, mass_matrix, MassKind};
 pub use normals::{face_normals, vertex_area_normals, vertex_normals};
 pub use rotation::{polar_decomposition, rotation_exp, rotation_log, scale_shear_vector, Polar};
