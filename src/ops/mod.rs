@@ -12,18 +12,22 @@
 //! sampling ([`sampling`]) and unit-sphere normalisation ([`normalize`]).
 
 pub mod adjacency;
+pub mod geodesic;
 pub mod gradient;
 pub mod laplacian;
 pub mod normals;
 pub mod rotation;
+pub mod sampling;
 pub mod topology;
 
 pub use adjacency::{
     boundary_edges, boundary_vertices, edge_faces, is_closed, vertex_faces, vertex_neighbours, Csr,
     EdgeFaces,
 };
+pub use geodesic::{dijkstra_distances, EdgeGraph};
 pub use gradient::{deformation_features, deformation_gradients, DeformationFeatures};
 pub use laplacian::{cotan_laplacian, cotan_weights, mass_matrix, MassKind};
 pub use normals::{face_normals, vertex_area_normals, vertex_normals};
 pub use rotation::{polar_decomposition, rotation_exp, rotation_log, scale_shear_vector, Polar};
+pub use sampling::{farthest_point_sampling, farthest_point_sampling_from, FpsMetric};
 pub use topology::{edges, face_areas, total_area};
