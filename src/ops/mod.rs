@@ -15,6 +15,7 @@ pub mod adjacency;
 pub mod geodesic;
 pub mod gradient;
 pub mod laplacian;
+pub mod normalize;
 pub mod normals;
 pub mod rotation;
 pub mod sampling;
@@ -27,6 +28,9 @@ pub use adjacency::{
 pub use geodesic::{dijkstra_distances, EdgeGraph};
 pub use gradient::{deformation_features, deformation_gradients, DeformationFeatures};
 pub use laplacian::{cotan_laplacian, cotan_weights, mass_matrix, MassKind};
+pub use normalize::{
+    normalize_to_unit_sphere, unit_sphere_transform, NormalizeReference, Similarity,
+};
 pub use normals::{face_normals, vertex_area_normals, vertex_normals};
 pub use rotation::{polar_decomposition, rotation_exp, rotation_log, scale_shear_vector, Polar};
 pub use sampling::{farthest_point_sampling, farthest_point_sampling_from, FpsMetric};
