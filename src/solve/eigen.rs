@@ -1,0 +1,1 @@
+//! Generalised symmetric eigenpairs (placeholder, being written).
