@@ -11,11 +11,14 @@
 //!
 //! Algorithms never touch files: only `mesh::io` and `data` do I/O.
 
+pub mod arap;
 pub mod data;
 pub mod error;
 pub mod mesh;
 pub mod ops;
+pub mod skin;
 pub mod solve;
+pub mod transfer;
 
 pub use error::{Error, Result};
 pub use mesh::Mesh;

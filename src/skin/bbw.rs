@@ -1,0 +1,1 @@
+//! Bounded biharmonic weights (BDT Eq. 1).

@@ -1,0 +1,8 @@
+//! Skinning: weights (bounded biharmonic, later Laplace–Beltrami), linear
+//! blend skinning, rotation groups.
+
+pub mod bbw;
+pub mod groups;
+pub mod lbs;
+
+pub use lbs::{lbs, transforms_from_stacked, transforms_to_stacked, Affine, LbsMatrix};
