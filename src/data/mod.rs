@@ -1,5 +1,8 @@
 //! Dataset layouts, synthetic data and correspondence files.
 
+pub mod off;
+pub mod synthetic;
+
 use std::path::PathBuf;
 
 /// The development data folder `../shared/data` beside the repository (or the
