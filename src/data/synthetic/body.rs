@@ -188,11 +188,31 @@ struct Builder {
 impl Builder {
     /// Extrudes a limb from the patch `region` (face indices) along `rings`.
     /// `u0`, `v0` are the patch's in-plane axes and `n0` its outward normal.
-    fn limb(&mut self, region: &[usize], n0: Vec3, u0: Vec3, v0: Vec3, rings: &[Ring], dome: f64) {
+    #[allow(clippy::too_many_arguments)]
+    fn limb(
+        &mut self,
+        region: &[usize],
+        n0: Vec3,
+        u0: Vec3,
+        v0: Vec3,
+        rings: &[Ring],
+        dome: f64,
+        base: Option<(usize, f64)>,
+    ) {
         // Patch centre and normalised offsets of its vertices.
         let mut verts: Vec<usize> = region.iter().flat_map(|&f| self.quads[f]).collect();
         verts.sort_unstable();
         verts.dedup();
+        // The patch's own (body) vertices partly follow the limb.
+        if let Some((bone, share)) = base {
+            for &v in &verts {
+                let w = &mut self.weights[v];
+                for x in w.iter_mut() {
+                    *x *= 1.0 - share;
+                }
+                w[bone] += share;
+            }
+        }
         let c0 = verts.iter().map(|&v| self.vertices[v]).sum::<Vec3>() / verts.len() as f64;
         let hu = verts
             .iter()
@@ -349,9 +369,12 @@ pub fn build(p: &Proportions, tail: bool) -> (Skeleton, Cage) {
                 let z = (2.0 * k as f64 / NZ as f64 - 1.0) * depth;
                 index.insert((i, j, k), b.vertices.len());
                 b.vertices.push(Vec3::new(x, y, z));
+                // Spine blend over three rows so a bent torso stays smooth.
                 b.weights.push(match j {
-                    0..=2 => w1(PELVIS),
+                    0 | 1 => w1(PELVIS),
+                    2 => w2(PELVIS, 0.8, CHEST),
                     3 => w2(PELVIS, 0.5, CHEST),
+                    4 => w2(PELVIS, 0.2, CHEST),
                     _ => w1(CHEST),
                 });
             }
@@ -448,7 +471,10 @@ pub fn build(p: &Proportions, tail: bool) -> (Skeleton, Cage) {
     let el_l = sh_l + ex * p.upper_arm_length;
     let wr_l = el_l + ex * p.forearm_length;
     let hand_l = wr_l + ex * p.hand_length;
-    let hip_l = Vec3::new(0.55 * p.hip_half_width, y0 + 0.3 * p.leg_radius, 0.0);
+    // Keep the thighs apart: the inner side of the first leg ring stays
+    // clear of the mid-plane whatever the proportions.
+    let hip_x = (0.55 * p.hip_half_width).max(1.35 * p.leg_radius);
+    let hip_l = Vec3::new(hip_x, y0 + 0.3 * p.leg_radius, 0.0);
     let kn_l = hip_l - ey * p.thigh_length;
     let an_l = kn_l - ey * p.shin_length;
     let toe_l = an_l + ez * p.foot_length - ey * 0.4 * p.leg_radius;
@@ -495,7 +521,15 @@ pub fn build(p: &Proportions, tail: bool) -> (Skeleton, Cage) {
             weights: w1(HEAD),
         },
     ];
-    b.limb(&top_patch, ey, ex, ez, &head_rings, 0.3 * r);
+    b.limb(
+        &top_patch,
+        ey,
+        ex,
+        ez,
+        &head_rings,
+        0.3 * r,
+        Some((HEAD, 0.15)),
+    );
 
     // Arms: side patches, top two rows.
     let ra = p.arm_radius;
@@ -560,7 +594,7 @@ pub fn build(p: &Proportions, tail: bool) -> (Skeleton, Cage) {
             },
         ];
         // u = z (front/back, the flat hand's width), v = y.
-        b.limb(&patch, dx, ez, ey, &rings, 0.2 * ra);
+        b.limb(&patch, dx, ez, ey, &rings, 0.2 * ra, Some((ua, 0.25)));
     }
 
     // Legs: bottom patches (left leg on +x: cells i = 2, 3).
@@ -625,7 +659,7 @@ pub fn build(p: &Proportions, tail: bool) -> (Skeleton, Cage) {
             },
         ];
         // u = x (foot width), v = z.
-        b.limb(&patch, -ey, ex, ez, &rings, 0.2 * rl);
+        b.limb(&patch, -ey, ex, ez, &rings, 0.2 * rl, Some((th, 0.25)));
     }
 
     // Tail: back patch, bottom row, cells i = 1, 2.
@@ -655,7 +689,15 @@ pub fn build(p: &Proportions, tail: bool) -> (Skeleton, Cage) {
                 weights,
             });
         }
-        b.limb(&patch, -ez, ex, ey, &rings, 0.5 * rt);
+        b.limb(
+            &patch,
+            -ez,
+            ex,
+            ey,
+            &rings,
+            0.5 * rt,
+            Some((TAIL_BASE, 0.2)),
+        );
     }
 
     let mut head = [Point::origin(); N_BONES];

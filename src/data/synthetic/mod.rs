@@ -141,6 +141,7 @@ impl FaustStyle {
             .into_iter()
             .map(|w| w.0)
             .collect();
+        let weights = smooth_weights(&quads, weights, WEIGHT_SMOOTHING << (self.resolution - 1));
         let labels: Vec<usize> = weights
             .iter()
             .map(|w| {
@@ -202,6 +203,45 @@ impl FaustStyle {
     }
 }
 
+/// Uniform smoothing rounds of the subdivided weights at resolution 1
+/// (doubled per extra level, so the blend width in metres stays the same).
+const WEIGHT_SMOOTHING: usize = 8;
+
+/// `rounds` Jacobi rounds of `w ← ½ w + ½ mean(neighbours)` on the quad
+/// mesh's edge graph: widens every joint's blend region. Partition of unity
+/// is kept.
+fn smooth_weights(quads: &[[usize; 4]], mut w: Vec<Weights>, rounds: usize) -> Vec<Weights> {
+    let mut nb: Vec<Vec<usize>> = vec![Vec::new(); w.len()];
+    for q in quads {
+        for k in 0..4 {
+            let (a, b) = (q[k], q[(k + 1) % 4]);
+            if !nb[a].contains(&b) {
+                nb[a].push(b);
+                nb[b].push(a);
+            }
+        }
+    }
+    for _ in 0..rounds {
+        w = (0..w.len())
+            .map(|i| {
+                let mut acc = [0.0; N_BONES];
+                for &j in &nb[i] {
+                    for (a, x) in acc.iter_mut().zip(&w[j]) {
+                        *a += x;
+                    }
+                }
+                let k = nb[i].len().max(1) as f64;
+                let mut out = w[i];
+                for (o, a) in out.iter_mut().zip(acc) {
+                    *o = 0.5 * *o + 0.5 * a / k;
+                }
+                out
+            })
+            .collect();
+    }
+    w
+}
+
 /// Area-weighted vertex normals (unit; zero for isolated vertices).
 fn vertex_normals(mesh: &Mesh) -> Vec<Vec3> {
     let v = mesh.vertices();
@@ -260,7 +300,7 @@ impl SyntheticSet {
     /// its barycentric map onto the shared connectivity (pose-independent:
     /// apply it to any pose of subject 0 with [`Remeshed::transfer`]).
     pub fn remesh(&self, keep: f64) -> Result<Remeshed> {
-        remesh::remesh(&self.rest[0], keep, self.config.seed ^ 0x5EED_0F_4E3E5)
+        remesh::remesh(&self.rest[0], keep, self.config.seed ^ 0x05EE_D0F4_E3E5)
     }
 }
 

@@ -218,7 +218,7 @@ pub fn pose_table() -> [Pose; N_POSES] {
                 knee: 10.0,
                 ..arms_down(30.0)
             },
-            chest_bend: 45.0,
+            chest_bend: 35.0,
             head_nod: -25.0,
             tail_lift: 25.0,
             ..Spec::default()
@@ -253,14 +253,14 @@ pub fn pose_table() -> [Pose; N_POSES] {
                 elbow: 20.0,
                 hip: 45.0,
                 knee: 70.0,
-                ..arms_down(70.0)
+                ..arms_down(55.0)
             },
             right: Side {
                 arm_forward: 40.0,
                 elbow: 60.0,
                 hip: -20.0,
                 knee: 15.0,
-                ..arms_down(70.0)
+                ..arms_down(55.0)
             },
             chest_twist: -12.0,
             head_turn: -15.0,
@@ -290,7 +290,7 @@ pub fn pose_table() -> [Pose; N_POSES] {
         Spec {
             left: Side {
                 elbow: 45.0,
-                hip_out: 45.0,
+                hip_out: 28.0,
                 knee: 20.0,
                 ..arms_down(40.0)
             },
@@ -302,7 +302,7 @@ pub fn pose_table() -> [Pose; N_POSES] {
             chest_side: -15.0,
             head_turn: -40.0,
             root_turn: -25.0,
-            tail_lift: 40.0,
+            tail_lift: 20.0,
             ..Spec::default()
         },
         // 9 crouch and reach: deep knee bend, one arm reaching forward.
@@ -319,7 +319,7 @@ pub fn pose_table() -> [Pose; N_POSES] {
                 elbow: 110.0,
                 hip: 35.0,
                 knee: 50.0,
-                ..arms_down(75.0)
+                ..arms_down(55.0)
             },
             chest_bend: 30.0,
             chest_twist: 15.0,
@@ -369,16 +369,16 @@ fn bone_transforms(sk: &Skeleton, pose: &Pose) -> [(UnitQuaternion<f64>, Vec3); 
 }
 
 /// Hinges that bulge: (parent bone, child bone, amplitude of the inner-side
-/// muscle bulge).
-const HINGES: [(usize, usize, f64); 8] = [
-    (UPPER_ARM_L, FOREARM_L, 0.5),
-    (UPPER_ARM_R, FOREARM_R, 0.5),
-    (THIGH_L, SHIN_L, 0.35),
-    (THIGH_R, SHIN_R, 0.35),
-    (CHEST, UPPER_ARM_L, 0.15),
-    (CHEST, UPPER_ARM_R, 0.15),
-    (PELVIS, THIGH_L, 0.15),
-    (PELVIS, THIGH_R, 0.15),
+/// muscle bulge, bone whose girth scales the bulge).
+const HINGES: [(usize, usize, f64, usize); 8] = [
+    (UPPER_ARM_L, FOREARM_L, 0.5, UPPER_ARM_L),
+    (UPPER_ARM_R, FOREARM_R, 0.5, UPPER_ARM_R),
+    (THIGH_L, SHIN_L, 0.35, THIGH_L),
+    (THIGH_R, SHIN_R, 0.35, THIGH_R),
+    (CHEST, UPPER_ARM_L, 0.3, UPPER_ARM_L),
+    (CHEST, UPPER_ARM_R, 0.3, UPPER_ARM_R),
+    (PELVIS, THIGH_L, 0.3, THIGH_L),
+    (PELVIS, THIGH_R, 0.3, THIGH_R),
 ];
 /// Amplitude of the girth increase around a bent joint.
 const JOINT_SWELL: f64 = 0.15;
@@ -393,7 +393,7 @@ pub fn pose_vertices(
 ) -> Vec<Point> {
     // Bulged rest positions.
     let mut bulged: Vec<Point> = rest.to_vec();
-    for &(parent, child, amp) in &HINGES {
+    for &(parent, child, amp, girth) in &HINGES {
         let theta = pose[child].angle();
         let s = (0.5 * theta).sin().powi(2);
         if s < 1e-12 {
@@ -409,7 +409,7 @@ pub fn pose_vertices(
         let (a, z) = (sk.head[parent], sk.tail[parent]);
         let axis = z - a;
         let len2 = axis.norm_squared().max(1e-18);
-        let r = sk.radius[parent];
+        let r = sk.radius[girth];
         for (i, x) in rest.iter().enumerate() {
             let (wp, wc) = (weights[i][parent], weights[i][child]);
             if wp <= 0.0 {
