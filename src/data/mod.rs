@@ -1,5 +1,16 @@
 //! Dataset layouts, synthetic data and correspondence files.
 
+pub mod correspondence;
+pub mod folders;
+pub mod off;
+pub mod synthetic;
+
+pub use correspondence::{
+    read_cons, read_markers_yml, read_pairs, read_pairs_csv, MarkerFile, PairFormat, VertexPair,
+};
+pub use folders::{FaustEntry, FaustFolder, Manifest, ToscaEntry, ToscaFolder};
+pub use synthetic::{write_faust_style, write_tosca_style, FaustStyle, SyntheticSet};
+
 use std::path::PathBuf;
 
 /// The development data folder `../shared/data` beside the repository (or the
