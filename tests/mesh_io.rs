@@ -66,6 +66,16 @@ fn ply_round_trip_is_exact() {
 }
 
 #[test]
+fn off_round_trip_is_exact() {
+    let d = tmp();
+    for mesh in [icosphere(2), awkward_mesh()] {
+        let p = d.path().join("m.off");
+        deformlab::mesh::io::write_off(&p, &mesh).unwrap();
+        assert_eq!(read_mesh(&p).unwrap(), mesh);
+    }
+}
+
+#[test]
 fn obj_round_trip_is_exact() {
     let d = tmp();
     for mesh in [icosphere(1), awkward_mesh()] {

@@ -42,6 +42,7 @@ pub fn run(paths: &[PathBuf], brief: bool) -> Result<ExitCode> {
     let files = expand(paths)?;
     let mut failed = 0usize;
     let mut loaded: Vec<(PathBuf, Mesh)> = Vec::new();
+    let mut clean = 0usize;
     for path in &files {
         match read_raw(path) {
             Err(e) => {
@@ -50,6 +51,7 @@ pub fn run(paths: &[PathBuf], brief: bool) -> Result<ExitCode> {
             }
             Ok(raw) => {
                 let report = DefectReport::of(&raw);
+                clean += usize::from(report.is_clean());
                 if brief {
                     println!("{}: {}", path.display(), report.summary());
                 } else {
@@ -65,7 +67,7 @@ pub fn run(paths: &[PathBuf], brief: bool) -> Result<ExitCode> {
             }
         }
     }
-    print_set_summary(&loaded, files.len(), failed);
+    print_set_summary(&loaded, files.len(), failed, clean, brief);
     Ok(if failed == 0 {
         ExitCode::SUCCESS
     } else {
@@ -76,10 +78,17 @@ pub fn run(paths: &[PathBuf], brief: bool) -> Result<ExitCode> {
 /// Groups meshes by vertex count (only meshes of equal size can share
 /// connectivity) and compares connectivity within each group against its
 /// first member.
-fn print_set_summary(loaded: &[(PathBuf, Mesh)], n_files: usize, failed: usize) {
+fn print_set_summary(
+    loaded: &[(PathBuf, Mesh)],
+    n_files: usize,
+    failed: usize,
+    clean: usize,
+    brief: bool,
+) {
     println!(
-        "== set summary: {n_files} file(s), {} loaded, {failed} unreadable",
-        loaded.len()
+        "== set summary: {n_files} file(s), {} loaded, {failed} unreadable; {clean} without any defect, {} with defects",
+        loaded.len(),
+        n_files - failed - clean
     );
     let mut groups: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     for (i, (_, m)) in loaded.iter().enumerate() {
@@ -98,7 +107,9 @@ fn print_set_summary(loaded: &[(PathBuf, Mesh)], n_files: usize, failed: usize) 
         let meshes: Vec<Mesh> = members.iter().map(|&i| loaded[i].1.clone()).collect();
         let report = ConnectivityReport::of(&meshes);
         println!("-- {nv} vertices: {}", names.join(" "));
-        for line in report.to_string().lines() {
+        let text = report.to_string();
+        let shown = if brief { 1 } else { usize::MAX };
+        for line in text.lines().take(shown) {
             println!("   {line}");
         }
     }

@@ -1,5 +1,6 @@
 //! Command definitions (clap) and their dispatch.
 
+mod gen;
 mod inspect;
 
 use std::path::PathBuf;
@@ -20,6 +21,38 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
+    /// Write the synthetic data set: a FAUST-style folder (S subjects × P
+    /// poses of an articulated creature, one connectivity, exact ground
+    /// truth, bone labels), a TOSCA-style class and a remeshed subject.
+    #[command(after_help = "Examples:\n  \
+        deformlab gen --out data/synthetic\n  \
+        deformlab gen --out /tmp/small --subjects 2 --poses 4 --seed 7\n\n\
+        Layout: OUT/faust/tr_reg_XXX.ply (XXX = 10·subject + pose), OUT/faust/labels.csv,\n\
+        OUT/faust/synthetic.json, OUT/faust/rest/, OUT/tosca/creatureK.{off,ply},\n\
+        OUT/remesh/remesh_*.ply + map.csv (face, barycentrics on subject 0).")]
+    Gen {
+        /// Output folder (created if missing).
+        #[arg(long)]
+        out: PathBuf,
+        /// Seed of every random choice (subject proportions, remesh).
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Number of subjects.
+        #[arg(long, default_value_t = 6)]
+        subjects: usize,
+        /// Poses per subject (at most 10).
+        #[arg(long, default_value_t = 8)]
+        poses: usize,
+        /// Catmull–Clark levels of the template (2: ~6.7k vertices).
+        #[arg(long, default_value_t = 2)]
+        resolution: u32,
+        /// Creature without a tail.
+        #[arg(long)]
+        no_tail: bool,
+        /// Overwrite an existing generated set in OUT.
+        #[arg(long)]
+        force: bool,
+    },
     /// Load meshes, print a defect table per file and a set summary.
     #[command(after_help = "Examples:\n  \
         deformlab inspect data/synthetic/faust/*.ply\n  \
@@ -38,6 +71,23 @@ pub enum Command {
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> Result<ExitCode> {
     match cli.command {
+        Command::Gen {
+            out,
+            seed,
+            subjects,
+            poses,
+            resolution,
+            no_tail,
+            force,
+        } => gen::run(gen::GenArgs {
+            out: &out,
+            seed,
+            subjects,
+            poses,
+            resolution,
+            no_tail,
+            force,
+        }),
         Command::Inspect { paths, brief } => inspect::run(&paths, brief),
     }
 }

@@ -2,7 +2,6 @@
 
 pub mod correspondence;
 pub mod folders;
-pub mod off;
 pub mod synthetic;
 
 pub use correspondence::{

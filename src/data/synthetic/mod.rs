@@ -431,7 +431,7 @@ pub fn write_tosca_style(
             n
         } else {
             let n = format!("{class}{k}.off");
-            crate::data::off::write_off(&dir.join(&n), &mesh)?;
+            crate::mesh::io::write_off(&dir.join(&n), &mesh)?;
             n
         };
         names.push(name);

@@ -118,6 +118,11 @@ pub fn write_obj(path: &Path, mesh: &Mesh) -> Result<()> {
     obj::write_obj(path, mesh)
 }
 
+/// Writes ASCII OFF (exact `f64` round trip), atomically.
+pub fn write_off(path: &Path, mesh: &Mesh) -> Result<()> {
+    write_atomic(path, &off::off_bytes(mesh))
+}
+
 /// Writes `bytes` to `path` through a temporary file and a rename.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let tmp = path.with_extension(format!(

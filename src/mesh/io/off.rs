@@ -1,4 +1,4 @@
-//! OFF reader (Geomview Object File Format, text variant).
+//! OFF reader and writer (Geomview Object File Format, text variant).
 //!
 //! Accepted: an `OFF`, `COFF`, `NOFF`, `CNOFF` or `STOFF`-style first keyword
 //! (only the first three numbers of a vertex line are used, so colours,
@@ -8,10 +8,11 @@
 //! indices. Rejected with an error: binary OFF, `4OFF` / `nOFF` (other
 //! dimensions), and files whose data disagree with the counts.
 
+use std::fmt::Write as _;
 use std::path::Path;
 
 use super::text::{capped, content_lines, fan, line_loc, parse_count, parse_point, read_text};
-use crate::mesh::RawMesh;
+use crate::mesh::{Mesh, RawMesh};
 use crate::{Error, Result};
 
 pub(super) fn read_off(path: &Path) -> Result<RawMesh> {
@@ -132,4 +133,20 @@ pub(super) fn read_off(path: &Path) -> Result<RawMesh> {
         ));
     }
     Ok(RawMesh { vertices, faces })
+}
+
+/// Writes `mesh` as ASCII OFF (`OFF`, counts line, `x y z` lines, `3 a b c`
+/// lines). Coordinates use Rust's shortest round-trip formatting, so reading
+/// the file back gives the same `f64` values.
+pub(super) fn off_bytes(mesh: &Mesh) -> Vec<u8> {
+    let mut s = String::with_capacity(40 * mesh.n_vertices() + 20 * mesh.n_faces() + 32);
+    // Writing to a String cannot fail; the results are ignored on purpose.
+    let _ = writeln!(s, "OFF\n{} {} 0", mesh.n_vertices(), mesh.n_faces());
+    for p in mesh.vertices() {
+        let _ = writeln!(s, "{:?} {:?} {:?}", p.x, p.y, p.z);
+    }
+    for f in mesh.faces() {
+        let _ = writeln!(s, "3 {} {} {}", f[0], f[1], f[2]);
+    }
+    s.into_bytes()
 }
