@@ -10,11 +10,24 @@ fn deformlab() -> Command {
 fn gen_then_inspect_reports_zero_defects() {
     let dir = tempfile::tempdir().unwrap();
     let out = deformlab()
-        .args(["gen", "--subjects", "2", "--poses", "3", "--seed", "5", "--out"])
+        .args([
+            "gen",
+            "--subjects",
+            "2",
+            "--poses",
+            "3",
+            "--seed",
+            "5",
+            "--out",
+        ])
         .arg(dir.path())
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let faust = dir.path().join("faust");
     assert!(faust.join("tr_reg_000.ply").is_file());
     assert!(faust.join("tr_reg_012.ply").is_file());
@@ -52,7 +65,10 @@ fn inspect_names_bad_and_missing_files() {
     let out = deformlab().arg("inspect").arg(&bad).output().unwrap();
     let text = String::from_utf8_lossy(&out.stdout);
     assert_eq!(out.status.code(), Some(1), "{text}");
-    assert!(text.contains("broken.off") && text.contains("UNREADABLE"), "{text}");
+    assert!(
+        text.contains("broken.off") && text.contains("UNREADABLE"),
+        "{text}"
+    );
 
     let missing = dir.path().join("nope.ply");
     let out = deformlab().arg("inspect").arg(&missing).output().unwrap();
@@ -77,5 +93,8 @@ fn inspect_real_tosca_and_camel_when_present() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{text}");
     assert!(text.contains("376"), "centaur3's reversed faces: {text}");
-    assert!(text.contains("non-manifold edges                   26"), "{text}");
+    assert!(
+        text.contains("non-manifold edges                   26"),
+        "{text}"
+    );
 }

@@ -1,7 +1,6 @@
 //! Dataset folder loaders and manifests, on generated temporary folders.
 
 use std::fs;
-use std::path::Path;
 
 use deformlab::data::correspondence::PairFormat;
 use deformlab::data::folders::{FaustFolder, Label, Manifest, ToscaFolder};
@@ -19,16 +18,6 @@ fn small() -> FaustStyle {
 
 /// Loading needs the mesh readers (another module); skip that part while
 /// they are not implemented.
-fn readers_available(path: &Path) -> bool {
-    match deformlab::mesh::io::read_mesh(path) {
-        Err(e) if e.to_string().contains("not implemented") => {
-            eprintln!("SKIP mesh loading: mesh readers not implemented yet");
-            false
-        }
-        _ => true,
-    }
-}
-
 #[test]
 fn faust_folder_on_generated_set() {
     let dir = tempfile::tempdir().unwrap();
@@ -48,11 +37,9 @@ fn faust_folder_on_generated_set() {
     assert!(pairs
         .iter()
         .all(|(a, b)| a.pose == b.pose && a.subject == 0 && b.subject == 1));
-    if readers_available(&e.path) {
-        let m = e.load().unwrap();
-        assert_eq!(m.faces(), set.faces());
-        assert_eq!(m.vertices(), set.meshes[1][2].vertices());
-    }
+    let m = e.load().unwrap();
+    assert_eq!(m.faces(), set.faces());
+    assert_eq!(m.vertices(), set.meshes[1][2].vertices());
 }
 
 #[test]
@@ -96,17 +83,15 @@ fn tosca_folder_on_generated_class() {
     );
     assert!(c[4].path.extension().unwrap() == "ply" && c[3].path.extension().unwrap() == "off");
     assert!(t.class("wolf").unwrap()[0].path.ends_with("wolf2.vert"));
-    if readers_available(&c[0].path) {
-        let rest = c[0].load().unwrap();
-        assert_eq!(rest.faces(), set.faces());
-        assert_eq!(
-            rest.vertices(),
-            set.rest[0].vertices(),
-            "OFF round trip is exact"
-        );
-        let p3 = c[4].load().unwrap();
-        assert_eq!(p3.vertices(), set.posed(0, 3).unwrap().vertices());
-    }
+    let rest = c[0].load().unwrap();
+    assert_eq!(rest.faces(), set.faces());
+    assert_eq!(
+        rest.vertices(),
+        set.rest[0].vertices(),
+        "OFF round trip is exact"
+    );
+    let p3 = c[4].load().unwrap();
+    assert_eq!(p3.vertices(), set.posed(0, 3).unwrap().vertices());
     // Errors: missing .tri, duplicate class index.
     fs::remove_file(dir.path().join("wolf2.tri")).unwrap();
     let err = ToscaFolder::open(dir.path()).unwrap_err();
