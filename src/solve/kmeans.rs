@@ -201,8 +201,7 @@ fn lloyd(pts: &Points, n: usize, k: usize, rng: &mut ChaCha8Rng, max_iter: usize
         // Update step: means, in index order.
         let mut sums = vec![0.0; k * d];
         let mut counts = vec![0usize; k];
-        for i in 0..n {
-            let c = labels[i];
+        for (i, &c) in labels.iter().enumerate() {
             counts[c] += 1;
             for (s, x) in sums[c * d..(c + 1) * d].iter_mut().zip(pts.row(i)) {
                 *s += x;
