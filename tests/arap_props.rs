@@ -114,7 +114,7 @@ fn opts(use_ediff: bool, handles: &[usize]) -> ArapOptions {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 12, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
 
     /// E ≥ 0 for arbitrary transforms, and the reduced bookkeeping (trace[0]
     /// is the energy of `init`, the last entry that of the solution) equals
@@ -228,6 +228,9 @@ fn bad_input_is_an_error() {
     let (w, handles) = weights(&m, 3);
     let g = argmax_groups(&w);
     assert!(ReducedArap::new(&m, &w, &g[1..], ArapOptions::default()).is_err());
+    let mut huge = g.clone();
+    huge[0] = usize::MAX;
+    assert!(ReducedArap::new(&m, &w, &huge, ArapOptions::default()).is_err());
     assert!(ReducedArap::new(
         &m,
         &w.rows(0, n - 1).into_owned(),

@@ -43,7 +43,7 @@ fn same_partition(a: &[usize], b: &[usize]) -> bool {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
 
     #[test]
     fn deterministic_for_a_seed(n in 5usize..60, d in 1usize..5, k in 1usize..5, seed in any::<u64>()) {

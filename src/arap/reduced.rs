@@ -22,7 +22,8 @@ pub struct ArapOptions {
     /// `true`: data term E_diff (BDT Eq. 4). `false`: the FAST ablation, soft
     /// handle position constraints instead.
     pub use_ediff: bool,
-    /// Maximum number of local/global iterations per solve.
+    /// Maximum number of local/global iterations per solve (at least one is
+    /// always done).
     pub max_iter: usize,
     /// Stop when the energy decreases by at most `rel_tol` times its value.
     pub rel_tol: f64,
@@ -135,13 +136,13 @@ impl ReducedArap {
                 groups.len()
             )));
         }
-        let n_groups = groups.iter().max().map_or(0, |&g| g + 1);
-        if n_groups > n {
+        let max_label = groups.iter().copied().max().unwrap_or(0);
+        if max_label >= n {
             return Err(Error::invalid(format!(
-                "group label {} is out of range for {n} vertices",
-                n_groups - 1
+                "group label {max_label} is out of range for {n} vertices"
             )));
         }
+        let n_groups = if n == 0 { 0 } else { max_label + 1 };
         let nh = weights.ncols();
         let rest = mesh.vertices().to_vec();
         let lbs = LbsMatrix::new(&rest, weights)?;
