@@ -5,4 +5,5 @@ pub mod bbw;
 pub mod groups;
 pub mod lbs;
 
+pub use groups::{rotation_groups, GroupFeatures};
 pub use lbs::{lbs, transforms_from_stacked, transforms_to_stacked, Affine, LbsMatrix};
