@@ -9,6 +9,7 @@
 pub mod cholesky;
 pub mod eigen;
 pub use cholesky::{Inertia, SparseCholesky, SparseLdlt, SymbolicCholesky};
+pub use eigen::{generalized_eigen, mass_diagonal, EigenOptions, Eigenpairs};
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
