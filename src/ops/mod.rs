@@ -4,6 +4,7 @@
 //! stiffness matrix `L` (off-diagonal `-½(cot α + cot β)`, zero row sums), so
 //! the Laplace–Beltrami eigenproblem is `L φ = λ M φ` with `λ ≥ 0`.
 
+pub mod heat;
 pub mod laplacian;
 pub mod topology;
 
