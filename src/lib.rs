@@ -11,6 +11,7 @@
 //!
 //! Algorithms never touch files: only `mesh::io` and `data` do I/O.
 
+pub mod bench;
 pub mod data;
 pub mod error;
 pub mod mesh;
