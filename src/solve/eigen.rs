@@ -70,7 +70,8 @@ pub struct EigenOptions {
     pub max_dim: usize,
     /// Block size `b` (number of random start vectors); eigenvalues of
     /// multiplicity up to `b` are resolved reliably. `0` picks
-    /// `max(16, ⌈k/2⌉)`.
+    /// `max(8, ⌈k/4⌉)` (a cluster larger than `b` is caught by the inertia
+    /// check and retried with `2b`).
     pub block_size: usize,
     /// Screening tolerance: once all Ritz pairs of the shift-invert operator
     /// have `‖A u − θ u‖ ≤ lanczos_tol · θ`, the true residuals of `(L, M)`
@@ -231,7 +232,7 @@ pub fn generalized_eigen(
     let mut last_err = None;
     let mut dim = base_dim;
     let mut block = if opts.block_size == 0 {
-        (k.div_ceil(2)).max(16)
+        (k.div_ceil(4)).max(8)
     } else {
         opts.block_size
     };
