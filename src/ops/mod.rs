@@ -9,11 +9,13 @@
 //! ([`normals`]), polar decomposition and rotation log/exp ([`rotation`]),
 //! per-vertex deformation gradients and BDT rotation/scale features
 //! ([`gradient`]), Dijkstra geodesics ([`geodesic`]), farthest point
-//! sampling ([`sampling`]) and unit-sphere normalisation ([`normalize`]).
+//! sampling ([`sampling`]), heat-method geodesics ([`heat`]) and unit-sphere
+//! normalisation ([`normalize`]).
 
 pub mod adjacency;
 pub mod geodesic;
 pub mod gradient;
+pub mod heat;
 pub mod laplacian;
 pub mod normalize;
 pub mod normals;

@@ -10,6 +10,7 @@ pub mod cholesky;
 pub mod eigen;
 pub mod kmeans;
 pub use cholesky::{Inertia, SparseCholesky, SparseLdlt, SymbolicCholesky};
+pub use eigen::{generalized_eigen, mass_diagonal, EigenOptions, Eigenpairs};
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
