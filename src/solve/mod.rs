@@ -8,6 +8,7 @@
 
 pub mod cholesky;
 pub mod eigen;
+pub mod qp;
 pub use cholesky::{Inertia, SparseCholesky, SparseLdlt, SymbolicCholesky};
 
 use std::sync::atomic::{AtomicUsize, Ordering};
