@@ -45,7 +45,7 @@
 //!     factorisation of `Q` with one grounded vertex and `n_c` solves are
 //!     done once; a trial set then costs O(n |S|²). These are *exactly* the
 //!     unbounded biharmonic weights (up to rounding; tested against
-//!     [`WeightMode::Unbounded`]).
+//!     [`crate::skin::bbw::WeightMode::Unbounded`]).
 //!   - **Bounds.** [`FastBounds::ClampNormalize`] clamps them to `[0, 1]` and
 //!     renormalises each row to sum to one (not the BBW optimum: the weights
 //!     are not smooth where the clamp is active and a handle's weight can
@@ -74,7 +74,7 @@ use crate::mesh::Mesh;
 use crate::ops::{
     farthest_point_sampling, normalize_to_unit_sphere, FpsMetric, NormalizeReference, Similarity,
 };
-use crate::skin::bbw::{BbwOptions, Biharmonic, WeightMode};
+use crate::skin::bbw::{BbwOptions, Biharmonic};
 use crate::skin::groups::{group_features, GROUP_KMEANS};
 use crate::skin::{Affine, GroupFeatures};
 use crate::solve::kmeans::{kmeans_with, KMeansOptions};
@@ -839,10 +839,4 @@ impl GreenBasis {
         }
         Ok(w)
     }
-}
-
-/// Unbounded weights through [`WeightMode::Unbounded`] (for comparisons).
-#[doc(hidden)]
-pub fn unbounded_reference(mesh: &Mesh, set: &[usize]) -> Result<DMatrix<f64>> {
-    Biharmonic::new(mesh)?.weights(set, &BbwOptions::with_mode(WeightMode::Unbounded))
 }
