@@ -25,9 +25,7 @@ use std::time::Instant;
 use crate::data::synthetic::FaustStyle;
 use crate::mesh::io::read_mesh;
 use crate::ops::{farthest_point_sampling, FpsMetric};
-use crate::transfer::keypoints::{
-    fit_keypoints, select_keypoints, KeypointOptions, SelectionMode,
-};
+use crate::transfer::keypoints::{fit_keypoints, select_keypoints, KeypointOptions, SelectionMode};
 use crate::{Mesh, Result};
 
 fn median(mut v: Vec<f64>) -> f64 {
