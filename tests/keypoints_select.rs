@@ -183,7 +183,7 @@ fn bad_input_is_an_error() {
     assert!(fit_keypoints(&a, &[], &[0], &opts).is_err());
     // Mismatched vertex count.
     let other = deformlab::mesh::primitives::icosphere(1);
-    assert!(select_keypoints(&a, &[other.clone()], &opts).is_err());
+    assert!(select_keypoints(&a, std::slice::from_ref(&other), &opts).is_err());
     assert!(select_keypoints(&a, &[d[0].clone(), other], &opts).is_err());
     // Too many candidates / none.
     let too_many = KeypointOptions {
