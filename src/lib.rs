@@ -13,6 +13,7 @@
 
 pub mod arap;
 pub mod bench;
+pub mod bench_bdt;
 pub mod bench_skin;
 pub mod data;
 pub mod error;
