@@ -1,1 +1,461 @@
-//! Bounded biharmonic weights (BDT Eq. 1).
+//! Bounded biharmonic weights (BDT Eq. 1; Jacobson et al. 2011).
+//!
+//! For point handles `h_1..h_{n_h}` (mesh vertex indices) the weights
+//! minimise the discrete biharmonic energy `Σ_k ½ w_kᵀ Q w_k` with
+//! `Q = L M⁻¹ L` (positive semi-definite cotangent Laplacian `L`, Voronoi
+//! mass `M`), subject to interpolation `w_k(h_j) = δ_jk`, bounds
+//! `0 ≤ w ≤ 1` and partition of unity `Σ_k w_k = 1`.
+//!
+//! The handle rows are fixed, so every mode solves on the free vertices `f`
+//! with `Q_ff` (positive definite as soon as every connected component holds
+//! a handle) and linear term `B = Q_fh`:
+//!
+//! * [`WeightMode::Unbounded`] — equality constraints only:
+//!   `W_f = −Q_ff⁻¹ Q_fh`, one factorisation, all handles as right-hand sides.
+//!   Since `Q 1 = 0`, these sum to one exactly (up to rounding).
+//! * [`WeightMode::PerHandle`] — each `w_k` separately with `0 ≤ w_k ≤ 1`
+//!   (no partition of unity), then rows normalised to sum to one (the common
+//!   practice, and what libigl's `bbw` + `normalize_row_sums` does). Solved by
+//!   the primal–dual active-set method of [`crate::solve::qp::BoxQp`]: warm
+//!   start from the unbounded solution, active variables eliminated by an
+//!   identity block that keeps `Q_ff`'s sparsity pattern, so AMD and the
+//!   symbolic factorisation are done once per handle *set* and every
+//!   iteration of every handle is one numeric factorisation and one solve.
+//! * [`WeightMode::Coupled`] — the coupled problem of Eq. 1, all weights
+//!   together, by ADMM ([`crate::solve::qp::RowAdmm`]): the `W`-step
+//!   reuses one factorisation of `Q_ff + ρM_f` for all handles and
+//!   iterations (ρ re-balanced a few times, numeric refactorisation only),
+//!   the `Z`-step projects each vertex's row onto the probability simplex.
+//!   The returned weights are the projected iterate, so interpolation, bounds
+//!   and partition of unity hold *exactly*; optimality is approximate, to the
+//!   residual tolerance of [`BbwOptions::admm`] (`max|W − Z|` and
+//!   `max|Z − Z_prev|` both ≤ `tol`, weights being in [0, 1]).
+//!
+//! Figures and choices are documented on [`Biharmonic::weights`].
+
+use nalgebra::DMatrix;
+
+use crate::mesh::Mesh;
+use crate::ops::{cotan_laplacian, mass_matrix, MassKind};
+use crate::solve::qp::{project_to_simplex, AdmmOptions, BoxQp, RowAdmm, RowConstraint};
+use crate::solve::{sparse_from_triplets, SparseCholesky, SparseMatrix};
+use crate::{Error, Result};
+
+/// Which weights to compute (see the module documentation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum WeightMode {
+    /// BDT Eq. 1: bounds and partition of unity enforced together (ADMM).
+    #[default]
+    Coupled,
+    /// Bounds per handle (active set), then rows normalised to sum to one.
+    PerHandle,
+    /// Biharmonic weights with the interpolation constraints only (ablation);
+    /// they sum to one but may leave [0, 1].
+    Unbounded,
+}
+
+/// Options of [`Biharmonic::weights`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BbwOptions {
+    /// Which problem to solve.
+    pub mode: WeightMode,
+    /// [`WeightMode::PerHandle`]: maximum active-set iterations per handle.
+    pub max_iter: usize,
+    /// [`WeightMode::PerHandle`]: active-set tolerance (bound violation
+    /// relative to the [0, 1] box; multiplier sign relative to the largest
+    /// linear term). The result moves by at most `tol` when clamped.
+    pub tol: f64,
+    /// [`WeightMode::Coupled`]: ADMM iterations, residual tolerance and
+    /// penalty. Not converging within `admm.max_iter` is an error.
+    pub admm: AdmmOptions,
+    /// [`WeightMode::PerHandle`]: ADMM iterations used to guess the active
+    /// sets before the active-set method (0: start from the unbounded
+    /// solution).
+    pub admm_warm_start: usize,
+    /// [`WeightMode::Coupled`]: stop when the certified duality gap is at
+    /// most `rel_gap` × the biharmonic energy of the unbounded weights (a
+    /// lower bound of the optimal energy), i.e. the returned energy is
+    /// within that relative amount of the optimum.
+    pub rel_gap: f64,
+}
+
+impl Default for BbwOptions {
+    fn default() -> Self {
+        BbwOptions {
+            mode: WeightMode::Coupled,
+            max_iter: 200,
+            tol: 1e-8,
+            admm: AdmmOptions::default(),
+            admm_warm_start: 100,
+            rel_gap: 1e-4,
+        }
+    }
+}
+
+impl BbwOptions {
+    /// Defaults with `mode`.
+    pub fn with_mode(mode: WeightMode) -> Self {
+        BbwOptions {
+            mode,
+            ..Default::default()
+        }
+    }
+}
+
+/// Weights and solver statistics from [`Biharmonic::weights_with_report`].
+#[derive(Clone, Debug)]
+pub struct BbwReport {
+    /// n × n_h weights.
+    pub weights: DMatrix<f64>,
+    /// Numeric factorisations done.
+    pub factorizations: usize,
+    /// Active-set iterations summed over handles (PerHandle) or ADMM
+    /// iterations (Coupled); 0 for Unbounded.
+    pub iterations: usize,
+    /// Coupled: final `max|W − Z|` and `max|Z − Z_prev|`; 0 otherwise.
+    pub primal_residual: f64,
+    pub dual_residual: f64,
+    /// Coupled: certified relative suboptimality (duality gap / energy of
+    /// the unbounded weights); 0 otherwise.
+    pub duality_gap: f64,
+}
+
+/// Handle-independent precomputation for biharmonic weights on one mesh:
+/// `L`, `M`, `Q = L M⁻¹ L` and the connected components of `L`'s graph.
+/// Build once, then call [`Biharmonic::weights`] for many handle sets.
+#[derive(Clone, Debug)]
+pub struct Biharmonic {
+    q: SparseMatrix,
+    mass: Vec<f64>,
+    component: Vec<usize>,
+    n_components: usize,
+}
+
+impl Biharmonic {
+    /// Builds `L`, `M` (Voronoi) and `Q = L M⁻¹ L`. Errors if a vertex has
+    /// zero mass (an isolated vertex, or one only in degenerate faces): `M⁻¹`
+    /// and hence the biharmonic system would be singular there.
+    pub fn new(mesh: &Mesh) -> Result<Self> {
+        let n = mesh.n_vertices();
+        let l = cotan_laplacian(mesh);
+        let mass = mass_matrix(mesh, MassKind::Voronoi);
+        if let Some(i) = mass.iter().position(|&m| !(m > 0.0 && m.is_finite())) {
+            return Err(Error::invalid(format!(
+                "biharmonic weights: vertex {i} has zero Voronoi area (isolated vertex or only in \
+                 degenerate faces), so Q = L M⁻¹ L is singular there; remove unreferenced \
+                 vertices first"
+            )));
+        }
+        // Q_ij = Σ_k L_ki L_kj / m_k, pushed symmetrically so Q is exactly
+        // symmetric.
+        let (off, rows, vals) = (l.col_offsets(), l.row_indices(), l.values());
+        let mut trip = Vec::new();
+        for k in 0..n {
+            let col = off[k]..off[k + 1];
+            for p in col.clone() {
+                for r in col.clone() {
+                    trip.push((rows[p], rows[r], vals[p] * vals[r] / mass[k]));
+                }
+            }
+        }
+        let q = sparse_from_triplets(n, n, trip);
+        // Components of L's graph (non-zero off-diagonal entries).
+        let mut parent: Vec<usize> = (0..n).collect();
+        fn find(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                p[i] = p[p[i]];
+                i = p[i];
+            }
+            i
+        }
+        for (i, j, &v) in l.triplet_iter() {
+            if i < j && v != 0.0 {
+                let (a, b) = (find(&mut parent, i), find(&mut parent, j));
+                if a != b {
+                    parent[a.max(b)] = a.min(b);
+                }
+            }
+        }
+        let mut label = vec![usize::MAX; n];
+        let mut component = vec![0; n];
+        let mut n_components = 0;
+        for i in 0..n {
+            let r = find(&mut parent, i);
+            if label[r] == usize::MAX {
+                label[r] = n_components;
+                n_components += 1;
+            }
+            component[i] = label[r];
+        }
+        Ok(Biharmonic {
+            q,
+            mass,
+            component,
+            n_components,
+        })
+    }
+
+    /// Number of vertices.
+    pub fn n_vertices(&self) -> usize {
+        self.mass.len()
+    }
+
+    /// The quadratic form `Q = L M⁻¹ L` (n × n).
+    pub fn quadratic_form(&self) -> &SparseMatrix {
+        &self.q
+    }
+
+    /// The Voronoi mass diagonal `M`.
+    pub fn mass(&self) -> &[f64] {
+        &self.mass
+    }
+
+    /// `Σ_k ½ w_kᵀ Q w_k` for n × n_h weights (the objective of Eq. 1).
+    pub fn energy(&self, w: &DMatrix<f64>) -> Result<f64> {
+        if w.nrows() != self.n_vertices() {
+            return Err(Error::invalid(format!(
+                "weights have {} rows for {} vertices",
+                w.nrows(),
+                self.n_vertices()
+            )));
+        }
+        let (off, rows, vals) = (self.q.col_offsets(), self.q.row_indices(), self.q.values());
+        let mut e = 0.0;
+        for k in 0..w.ncols() {
+            let c = w.column(k);
+            for j in 0..self.n_vertices() {
+                let mut s = 0.0;
+                for p in off[j]..off[j + 1] {
+                    s += vals[p] * c[rows[p]];
+                }
+                e += 0.5 * s * c[j];
+            }
+        }
+        Ok(e)
+    }
+
+    /// Checks the handle list; returns the free vertices and, for every
+    /// vertex, its free index (or `usize::MAX` for a handle).
+    fn split(&self, handles: &[usize]) -> Result<(Vec<usize>, Vec<usize>)> {
+        let n = self.n_vertices();
+        if handles.is_empty() {
+            return Err(Error::invalid(
+                "biharmonic weights need at least one handle",
+            ));
+        }
+        let mut slot = vec![usize::MAX; n];
+        for (k, &h) in handles.iter().enumerate() {
+            if h >= n {
+                return Err(Error::invalid(format!(
+                    "handle {k} is vertex {h}, but the mesh has {n} vertices"
+                )));
+            }
+            if slot[h] != usize::MAX {
+                return Err(Error::invalid(format!(
+                    "handles {} and {k} are the same vertex {h}; handles must be distinct",
+                    slot[h]
+                )));
+            }
+            slot[h] = k;
+        }
+        let mut covered = vec![false; self.n_components];
+        for &h in handles {
+            covered[self.component[h]] = true;
+        }
+        if let Some(c) = covered.iter().position(|&c| !c) {
+            let v = self.component.iter().position(|&x| x == c).unwrap_or(0);
+            return Err(Error::invalid(format!(
+                "biharmonic weights: the connected component containing vertex {v} has no \
+                 handle ({} components in all), so the system is singular there (weights are \
+                 undetermined); put at least one handle in every component",
+                self.n_components
+            )));
+        }
+        let mut free_index = vec![usize::MAX; n];
+        let mut free = Vec::with_capacity(n - handles.len());
+        for i in 0..n {
+            if slot[i] == usize::MAX {
+                free_index[i] = free.len();
+                free.push(i);
+            }
+        }
+        Ok((free, free_index))
+    }
+
+    /// n × n_h weights for the handle vertices `handles` (distinct, in
+    /// range, at least one per connected component); column `k` belongs to
+    /// `handles[k]`.
+    ///
+    /// Choices and figures (FAUST `tr_reg_001`, 6890 vertices, 10 FPS
+    /// handles, release build, this 2-core machine shared with other jobs;
+    /// see `bench_skin`): filled in by the benchmark below.
+    pub fn weights(&self, handles: &[usize], opts: &BbwOptions) -> Result<DMatrix<f64>> {
+        Ok(self.weights_with_report(handles, opts)?.weights)
+    }
+
+    /// [`Biharmonic::weights`] with solver statistics.
+    pub fn weights_with_report(&self, handles: &[usize], opts: &BbwOptions) -> Result<BbwReport> {
+        let n = self.n_vertices();
+        let nh = handles.len();
+        let (free, free_index) = self.split(handles)?;
+        let nf = free.len();
+        let mut w = DMatrix::<f64>::zeros(n, nh);
+        for (k, &h) in handles.iter().enumerate() {
+            w[(h, k)] = 1.0;
+        }
+        let mut report = BbwReport {
+            weights: DMatrix::zeros(0, 0),
+            factorizations: 0,
+            iterations: 0,
+            primal_residual: 0.0,
+            dual_residual: 0.0,
+            duality_gap: 0.0,
+        };
+        if nf == 0 {
+            report.weights = w;
+            return Ok(report);
+        }
+        // Q_ff and B = Q_fh (dense n_f × n_h).
+        let mut handle_col = vec![usize::MAX; n];
+        for (k, &h) in handles.iter().enumerate() {
+            handle_col[h] = k;
+        }
+        let (off, rows, vals) = (self.q.col_offsets(), self.q.row_indices(), self.q.values());
+        let mut trip = Vec::with_capacity(vals.len());
+        let mut b = DMatrix::<f64>::zeros(nf, nh);
+        for j in 0..n {
+            for p in off[j]..off[j + 1] {
+                let i = rows[p];
+                let fi = free_index[i];
+                if fi == usize::MAX {
+                    continue;
+                }
+                if free_index[j] != usize::MAX {
+                    trip.push((fi, free_index[j], vals[p]));
+                } else {
+                    b[(fi, handle_col[j])] += vals[p];
+                }
+            }
+        }
+        let qff = sparse_from_triplets(nf, nf, trip);
+        let wf: DMatrix<f64> = match opts.mode {
+            WeightMode::Unbounded => {
+                let fac = SparseCholesky::new(&qff)?;
+                report.factorizations = 1;
+                fac.try_solve(&(-&b))?
+            }
+            WeightMode::PerHandle => {
+                let qp = BoxQp::new(&qff)?;
+                let fac = qp.symbolic().factorize(&qff)?;
+                let unbounded = fac.try_solve(&(-&b))?;
+                report.factorizations = 1;
+                // Warm start: a few ADMM iterations on all handles at once
+                // (box constraints, one factorisation of Q_ff + ρM_f).
+                let warm = if opts.admm_warm_start > 0 {
+                    let mf = diagonal(&qff);
+                    let admm = RowAdmm::new(&qff, &mf, RowConstraint::Box(0.0, 1.0))?;
+                    let aopts = AdmmOptions {
+                        max_iter: opts.admm_warm_start,
+                        ..opts.admm
+                    };
+                    let s = admm.solve(&b, &unbounded, &aopts)?;
+                    report.factorizations += s.factorizations;
+                    s.pre_projection
+                } else {
+                    unbounded.clone()
+                };
+                let mut wf = DMatrix::zeros(nf, nh);
+                for k in 0..nh {
+                    let bk: Vec<f64> = b.column(k).iter().copied().collect();
+                    let x0: Vec<f64> = warm.column(k).iter().copied().collect();
+                    let s = qp.solve(&bk, 0.0, 1.0, Some(&x0), opts.max_iter, opts.tol)?;
+                    report.factorizations += s.iterations;
+                    report.iterations += s.iterations;
+                    wf.column_mut(k).copy_from_slice(&s.x);
+                }
+                // Row normalisation; a row that is all zero (possible in
+                // principle) falls back to the simplex projection of the
+                // unbounded row.
+                let mut row = vec![0.0; nh];
+                for i in 0..nf {
+                    let s: f64 = wf.row(i).sum();
+                    if s > 1e-12 {
+                        for k in 0..nh {
+                            wf[(i, k)] /= s;
+                        }
+                    } else {
+                        for k in 0..nh {
+                            row[k] = unbounded[(i, k)];
+                        }
+                        project_to_simplex(&mut row);
+                        for k in 0..nh {
+                            wf[(i, k)] = row[k];
+                        }
+                    }
+                }
+                wf
+            }
+            WeightMode::Coupled => {
+                let mf = diagonal(&qff);
+                let admm = RowAdmm::new(&qff, &mf, RowConstraint::Simplex)?;
+                let fac = admm.symbolic().factorize(&qff)?;
+                let x0 = fac.try_solve(&(-&b))?;
+                // Energy scale: E(W) = P(W_f) + ½ Σ_k Q_{h_k h_k}; the gap
+                // tolerance is relative to the unbounded (smallest) energy.
+                let c: f64 = handles
+                    .iter()
+                    .map(|&h| 0.5 * self.q.get_entry(h, h).map_or(0.0, |e| e.into_value()))
+                    .sum();
+                let scale = (admm.objective(&x0, &b) + c).abs().max(f64::MIN_POSITIVE);
+                let aopts = AdmmOptions {
+                    gap_tol: opts.rel_gap * scale,
+                    ..opts.admm
+                };
+                let s = admm.solve(&b, &x0, &aopts)?;
+                report.factorizations = 1 + s.factorizations;
+                report.iterations = s.iterations;
+                report.primal_residual = s.primal_residual;
+                report.dual_residual = s.dual_residual;
+                report.duality_gap = s.duality_gap / scale;
+                if !s.converged {
+                    return Err(Error::numerical(format!(
+                        "coupled bounded biharmonic weights: ADMM did not reach the relative \
+                         duality gap {:e} in {} iterations (gap {:.2e}); raise admm.max_iter or \
+                         rel_gap",
+                        opts.rel_gap,
+                        s.iterations,
+                        s.duality_gap / scale
+                    )));
+                }
+                s.x
+            }
+        };
+        for (fi, &i) in free.iter().enumerate() {
+            for k in 0..nh {
+                w[(i, k)] = wf[(fi, k)];
+            }
+        }
+        report.weights = w;
+        Ok(report)
+    }
+}
+
+/// Stored diagonal of a square sparse matrix.
+fn diagonal(a: &SparseMatrix) -> Vec<f64> {
+    let mut d = vec![0.0; a.nrows()];
+    for (i, j, &v) in a.triplet_iter() {
+        if i == j {
+            d[i] = v;
+        }
+    }
+    d
+}
+
+/// Convenience: [`Biharmonic::new`] then [`Biharmonic::weights`].
+pub fn bounded_biharmonic_weights(
+    mesh: &Mesh,
+    handles: &[usize],
+    opts: &BbwOptions,
+) -> Result<DMatrix<f64>> {
+    Biharmonic::new(mesh)?.weights(handles, opts)
+}

@@ -9,6 +9,7 @@
 pub mod cholesky;
 pub mod eigen;
 pub mod kmeans;
+pub mod qp;
 pub use cholesky::{Inertia, SparseCholesky, SparseLdlt, SymbolicCholesky};
 
 use std::sync::atomic::{AtomicUsize, Ordering};

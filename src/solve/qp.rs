@@ -1,0 +1,665 @@
+//! Small convex quadratic programs on top of the sparse Cholesky wrapper.
+//!
+//! * [`BoxQp`] — `min ½ xᵀA x + bᵀx` subject to `lo ≤ x ≤ hi` (scalar bounds)
+//!   for a sparse symmetric positive-definite `A`, by a primal–dual active-set
+//!   method. Every iteration solves one equality-constrained system; the
+//!   active variables are eliminated by replacing their rows and columns with
+//!   a scaled identity *while keeping the stored pattern* (explicit zeros), so
+//!   the AMD ordering and symbolic factorisation are computed once per matrix
+//!   and reused for every active set and every right-hand side.
+//! * [`RowAdmm`] — `min Σ_k ½ x_kᵀA x_k + b_kᵀx_k` over an `n × m`
+//!   matrix `X` (columns `x_k`) whose every row lies on the probability simplex
+//!   (`X_ik ≥ 0`, `Σ_k X_ik = 1`), by ADMM with one factorisation of
+//!   `A + ρD` shared by all columns and iterations.
+//!
+//! Both are generic numerics (no meshes); bounded biharmonic weights
+//! (`skin::bbw`) are their main user.
+
+use nalgebra::DMatrix;
+
+use super::{SparseCholesky, SparseMatrix, SymbolicCholesky};
+use crate::{Error, Result};
+
+/// State of one variable in the active-set method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Bound {
+    Free,
+    Lower,
+    Upper,
+}
+
+/// Result of [`BoxQp::solve`].
+#[derive(Clone, Debug)]
+pub struct BoxQpSolution {
+    /// The minimiser (exactly within the bounds).
+    pub x: Vec<f64>,
+    /// Active-set iterations (= numeric factorisations) used.
+    pub iterations: usize,
+    /// Number of variables at a bound at the end.
+    pub n_active: usize,
+}
+
+/// Bound-constrained sparse QP `min ½ xᵀA x + bᵀx, lo ≤ x ≤ hi`, `A` symmetric
+/// positive definite. Build once per matrix ([`BoxQp::new`] computes the
+/// fill-reducing ordering), then [`BoxQp::solve`] for many `b`.
+///
+/// Algorithm (primal–dual active set, as in libigl's `active_set` and
+/// Hintermüller–Ito–Kunisch): start from the active set of a warm start `x0`
+/// (variables outside the bounds), then repeat: solve the system with the
+/// active variables fixed at their bounds; add free variables that violate a
+/// bound by more than `tol·(hi − lo)`; release active variables whose
+/// multiplier (the gradient `g = A x + b`) has the wrong sign by more than
+/// `tol·(hi − lo)·A_ii` (i.e. releasing `x_i` alone would move it by more than
+/// `tol·(hi − lo)`: a per-row scale-free test); stop when the set no longer
+/// changes. The result is clamped to the bounds (it
+/// moves by at most `tol·(hi − lo)`).
+#[derive(Clone, Debug)]
+pub struct BoxQp {
+    a: SparseMatrix,
+    diag: Vec<f64>,
+    symbolic: SymbolicCholesky,
+}
+
+impl BoxQp {
+    /// Analyses `a` (square, symmetric, every diagonal entry stored and
+    /// positive).
+    pub fn new(a: &SparseMatrix) -> Result<Self> {
+        let symbolic = SymbolicCholesky::new(a)?;
+        let n = a.nrows();
+        let mut diag = vec![0.0; n];
+        for (i, j, &v) in a.triplet_iter() {
+            if i == j {
+                diag[i] = v;
+            }
+        }
+        if let Some(i) = diag.iter().position(|&d| d <= 0.0) {
+            return Err(Error::invalid(format!(
+                "box QP matrix needs a positive stored diagonal; A({i}, {i}) = {}",
+                diag[i]
+            )));
+        }
+        Ok(BoxQp {
+            a: a.clone(),
+            diag,
+            symbolic,
+        })
+    }
+
+    /// Dimension.
+    pub fn n(&self) -> usize {
+        self.a.nrows()
+    }
+
+    /// The matrix `A`.
+    pub fn matrix(&self) -> &SparseMatrix {
+        &self.a
+    }
+
+    /// The symbolic factorisation of `A`'s pattern (e.g. to factorise `A`
+    /// itself for an unconstrained warm start).
+    pub fn symbolic(&self) -> &SymbolicCholesky {
+        &self.symbolic
+    }
+
+    /// `A x + b`.
+    fn gradient(&self, x: &[f64], b: &[f64]) -> Vec<f64> {
+        let mut g = b.to_vec();
+        sym_matvec_add(&self.a, x, &mut g);
+        g
+    }
+
+    /// Solves the QP for linear term `b`. `x0` (optional warm start) only
+    /// seeds the initial active set: variables of `x0` outside the bounds
+    /// start fixed at the violated bound. Errors if the bounds are empty or
+    /// not finite, on length mismatches, or if the active set has not settled
+    /// after `max_iter` iterations.
+    pub fn solve(
+        &self,
+        b: &[f64],
+        lo: f64,
+        hi: f64,
+        x0: Option<&[f64]>,
+        max_iter: usize,
+        tol: f64,
+    ) -> Result<BoxQpSolution> {
+        let n = self.n();
+        if b.len() != n || x0.is_some_and(|x| x.len() != n) {
+            return Err(Error::invalid(format!(
+                "box QP of dimension {n} got b of length {} and x0 of length {:?}",
+                b.len(),
+                x0.map(|x| x.len())
+            )));
+        }
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+            return Err(Error::invalid(format!(
+                "box QP bounds must be finite with lo < hi, got [{lo}, {hi}]"
+            )));
+        }
+        let feas_tol = tol * (hi - lo);
+        let mut state: Vec<Bound> = match x0 {
+            Some(x0) => x0
+                .iter()
+                .map(|&v| {
+                    if v < lo {
+                        Bound::Lower
+                    } else if v > hi {
+                        Bound::Upper
+                    } else {
+                        Bound::Free
+                    }
+                })
+                .collect(),
+            None => vec![Bound::Free; n],
+        };
+        let mut reduced = self.a.clone();
+        for it in 1..=max_iter.max(1) {
+            let value = |s: Bound| match s {
+                Bound::Lower => lo,
+                Bound::Upper => hi,
+                Bound::Free => 0.0,
+            };
+            // Matrix: active rows/columns → diag_i · e_i, pattern kept.
+            let mut rhs: Vec<f64> = b.iter().map(|v| -v).collect();
+            {
+                let (offsets, rows, vals) =
+                    (self.a.col_offsets(), self.a.row_indices(), self.a.values());
+                let out = reduced.values_mut();
+                for j in 0..n {
+                    for p in offsets[j]..offsets[j + 1] {
+                        let i = rows[p];
+                        let (si, sj) = (state[i], state[j]);
+                        out[p] = if si == Bound::Free && sj == Bound::Free {
+                            vals[p]
+                        } else if i == j {
+                            self.diag[i]
+                        } else {
+                            if si == Bound::Free {
+                                // Column j active: move A_ij x_j to the rhs.
+                                rhs[i] -= vals[p] * value(sj);
+                            }
+                            0.0
+                        };
+                    }
+                }
+            }
+            for i in 0..n {
+                if state[i] != Bound::Free {
+                    rhs[i] = self.diag[i] * value(state[i]);
+                }
+            }
+            let fac = self.symbolic.factorize(&reduced)?;
+            fac.solve_in_place(&mut rhs, 1)?;
+            let mut x = rhs;
+            for i in 0..n {
+                if state[i] != Bound::Free {
+                    x[i] = value(state[i]);
+                }
+            }
+            let g = self.gradient(&x, b);
+            let mut changed = false;
+            for i in 0..n {
+                let next = match state[i] {
+                    Bound::Free if x[i] < lo - feas_tol => Bound::Lower,
+                    Bound::Free if x[i] > hi + feas_tol => Bound::Upper,
+                    Bound::Lower if g[i] < -feas_tol * self.diag[i] => Bound::Free,
+                    Bound::Upper if g[i] > feas_tol * self.diag[i] => Bound::Free,
+                    s => s,
+                };
+                changed |= next != state[i];
+                state[i] = next;
+            }
+            if !changed {
+                for v in &mut x {
+                    *v = v.clamp(lo, hi);
+                }
+                return Ok(BoxQpSolution {
+                    x,
+                    iterations: it,
+                    n_active: state.iter().filter(|&&s| s != Bound::Free).count(),
+                });
+            }
+        }
+        Err(Error::numerical(format!(
+            "box-constrained QP: active set did not settle within {max_iter} iterations \
+             (raise max_iter)"
+        )))
+    }
+}
+
+/// `y += A x` for a sparse `A` (CSC; symmetric or not, `A x` column by column).
+pub fn sym_matvec_add(a: &SparseMatrix, x: &[f64], y: &mut [f64]) {
+    let (offsets, rows, vals) = (a.col_offsets(), a.row_indices(), a.values());
+    for (j, &xj) in x.iter().enumerate().take(a.ncols()) {
+        if xj == 0.0 {
+            continue;
+        }
+        for p in offsets[j]..offsets[j + 1] {
+            y[rows[p]] += vals[p] * xj;
+        }
+    }
+}
+
+/// Euclidean projection of `v` onto the probability simplex
+/// `{x : x ≥ 0, Σ x = 1}` (sort-based, O(m log m)); `v` is overwritten.
+/// Non-finite input gives the uniform vector.
+pub fn project_to_simplex(v: &mut [f64]) {
+    let m = v.len();
+    if m == 0 {
+        return;
+    }
+    if v.iter().any(|x| !x.is_finite()) {
+        v.fill(1.0 / m as f64);
+        return;
+    }
+    let mut u = v.to_vec();
+    u.sort_unstable_by(|a, b| b.total_cmp(a));
+    let mut cum = 0.0;
+    let mut theta = 0.0;
+    for (k, &uk) in u.iter().enumerate() {
+        cum += uk;
+        let t = (cum - 1.0) / (k + 1) as f64;
+        if uk - t > 0.0 {
+            theta = t;
+        } else {
+            break;
+        }
+    }
+    for x in v.iter_mut() {
+        *x = (*x - theta).max(0.0);
+    }
+}
+
+/// Options of [`RowAdmm::solve`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdmmOptions {
+    /// Maximum ADMM iterations.
+    pub max_iter: usize,
+    /// Stop when the duality gap (objective at the feasible `Z` minus a
+    /// Lagrange dual bound, see [`AdmmSolution::duality_gap`]) is at most
+    /// this (absolute, in objective units); checked every `adapt_every`
+    /// iterations (every 25 if that is 0).
+    pub gap_tol: f64,
+    /// Initial penalty relative to `ρ₀ = median_i(A_ii / D_i)`.
+    pub rho_scale: f64,
+    /// Re-balance `ρ` (one numeric refactorisation) when the primal and dual
+    /// residuals differ by more than this factor; checked every
+    /// `adapt_every` iterations. `0` disables adaptation.
+    pub adapt_every: usize,
+}
+
+impl Default for AdmmOptions {
+    fn default() -> Self {
+        AdmmOptions {
+            max_iter: 5000,
+            gap_tol: 1e-8,
+            rho_scale: 1e-3,
+            adapt_every: 25,
+        }
+    }
+}
+
+/// Result of [`RowAdmm::solve`].
+#[derive(Clone, Debug)]
+pub struct AdmmSolution {
+    /// The feasible iterate `Z` (every row exactly in the feasible set).
+    pub x: DMatrix<f64>,
+    /// The last point that was projected, `X + U` (entries beyond a bound
+    /// mark the bounds ADMM considers active; used to warm-start an
+    /// active-set method).
+    pub pre_projection: DMatrix<f64>,
+    /// Iterations used.
+    pub iterations: usize,
+    /// Numeric factorisations used (1 + number of ρ updates).
+    pub factorizations: usize,
+    /// Final `max |X − Z|`.
+    pub primal_residual: f64,
+    /// Final `ρ · max |Z − Z_prev|·D_i/A_ii` (dual residual, weight units).
+    pub dual_residual: f64,
+    /// Certified suboptimality of `Z`: objective at `Z` minus the Lagrange
+    /// dual bound at the multiplier `ρDU` (≥ 0; the objective of `Z` exceeds
+    /// the optimum by at most this).
+    pub duality_gap: f64,
+    /// Whether both residuals reached the tolerance.
+    pub converged: bool,
+}
+
+/// `min Σ_k ½ x_kᵀA x_k + b_kᵀx_k` over `X` (n × m) with every row on the
+/// probability simplex, `A` sparse symmetric positive definite, by ADMM with
+/// the splitting `X = Z` in the `D`-weighted norm (`D` a positive diagonal):
+///
+/// ```text
+/// X ← (A + ρD)⁻¹ (ρD(Z − U) − B)      one factorisation for all columns
+/// Z ← rows of X + U projected onto the simplex
+/// U ← U + X − Z
+/// ```
+///
+/// Because `D` is diagonal, the `D`-weighted projection of a row is the
+/// plain Euclidean one.
+#[derive(Clone, Debug)]
+pub struct RowAdmm {
+    a: SparseMatrix,
+    d: Vec<f64>,
+    symbolic: SymbolicCholesky,
+    rho0: f64,
+    constraint: RowConstraint,
+    diag_a: Vec<f64>,
+}
+
+/// Feasible set of each row of `X` in [`RowAdmm`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RowConstraint {
+    /// The probability simplex `x ≥ 0, Σ x = 1`.
+    Simplex,
+    /// The box `lo ≤ x ≤ hi` (entries independent: the columns are then
+    /// separate bound-constrained QPs sharing one factorisation).
+    Box(f64, f64),
+}
+
+impl RowConstraint {
+    fn project(&self, row: &mut [f64]) {
+        match *self {
+            RowConstraint::Simplex => project_to_simplex(row),
+            RowConstraint::Box(lo, hi) => {
+                for v in row {
+                    *v = v.clamp(lo, hi);
+                }
+            }
+        }
+    }
+
+    /// Projects every row of `x`.
+    pub fn project_rows(&self, x: &mut DMatrix<f64>) {
+        let m = x.ncols();
+        let mut row = vec![0.0; m];
+        for i in 0..x.nrows() {
+            for k in 0..m {
+                row[k] = x[(i, k)];
+            }
+            self.project(&mut row);
+            for k in 0..m {
+                x[(i, k)] = row[k];
+            }
+        }
+    }
+}
+
+impl RowAdmm {
+    /// Analyses `a` (symmetric, every diagonal entry stored) with metric
+    /// diagonal `d` (positive).
+    pub fn new(a: &SparseMatrix, d: &[f64], constraint: RowConstraint) -> Result<Self> {
+        if let RowConstraint::Box(lo, hi) = constraint {
+            if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+                return Err(Error::invalid(format!(
+                    "ADMM box bounds must be finite with lo < hi, got [{lo}, {hi}]"
+                )));
+            }
+        }
+        let n = a.nrows();
+        if d.len() != n || d.iter().any(|&v| !(v > 0.0 && v.is_finite())) {
+            return Err(Error::invalid(format!(
+                "ADMM metric must be {n} positive finite values"
+            )));
+        }
+        let symbolic = SymbolicCholesky::new(a)?;
+        let mut diag_a = vec![0.0; n];
+        for (i, j, &v) in a.triplet_iter() {
+            if i == j {
+                diag_a[i] = v;
+            }
+        }
+        let mut ratio: Vec<f64> = diag_a.iter().zip(d).map(|(a, d)| a / d).collect();
+        ratio.sort_unstable_by(f64::total_cmp);
+        let rho0 = ratio[n / 2];
+        if !(rho0 > 0.0) {
+            return Err(Error::invalid(
+                "ADMM matrix needs a positive stored diagonal",
+            ));
+        }
+        Ok(RowAdmm {
+            a: a.clone(),
+            d: d.to_vec(),
+            symbolic,
+            rho0,
+            constraint,
+            diag_a,
+        })
+    }
+
+    /// The symbolic factorisation of `A`'s pattern.
+    pub fn symbolic(&self) -> &SymbolicCholesky {
+        &self.symbolic
+    }
+
+    /// Objective `Σ_k ½ z_kᵀA z_k + b_kᵀz_k`.
+    pub fn objective(&self, z: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
+        let mut e = 0.0;
+        for k in 0..z.ncols() {
+            let zk: Vec<f64> = z.column(k).iter().copied().collect();
+            let mut az = vec![0.0; zk.len()];
+            sym_matvec_add(&self.a, &zk, &mut az);
+            for i in 0..zk.len() {
+                e += zk[i] * (0.5 * az[i] + b[(i, k)]);
+            }
+        }
+        e
+    }
+
+    /// Lagrange dual function at multiplier `lambda` (for `X = Z`):
+    /// `−½ Σ_k (b_k + λ_k)ᵀA⁻¹(b_k + λ_k) + Σ_i min_{z ∈ C} (−λ_iᵀz)`, a
+    /// lower bound of the optimal objective.
+    fn dual_bound(
+        &self,
+        fac_a: &SparseCholesky,
+        lambda: &DMatrix<f64>,
+        b: &DMatrix<f64>,
+    ) -> Result<f64> {
+        let r = b + lambda;
+        let x = fac_a.try_solve(&r)?;
+        let mut d = -0.5 * r.dot(&x);
+        for i in 0..lambda.nrows() {
+            match self.constraint {
+                RowConstraint::Simplex => {
+                    d -= lambda.row(i).max();
+                }
+                RowConstraint::Box(lo, hi) => {
+                    for &l in lambda.row(i).iter() {
+                        d += (-l * lo).min(-l * hi);
+                    }
+                }
+            }
+        }
+        Ok(d)
+    }
+
+    fn factor(&self, rho: f64) -> Result<SparseCholesky> {
+        let mut s = self.a.clone();
+        let (offsets, rows) = (self.a.col_offsets().to_vec(), self.a.row_indices().to_vec());
+        let vals = s.values_mut();
+        for j in 0..self.d.len() {
+            for p in offsets[j]..offsets[j + 1] {
+                if rows[p] == j {
+                    vals[p] += rho * self.d[j];
+                }
+            }
+        }
+        self.symbolic.factorize(&s)
+    }
+
+    /// Solves for linear terms `b` (n × m) from a starting point `x0` (n × m;
+    /// projected onto the constraints first). Returns the feasible iterate
+    /// even when `max_iter` is reached (see [`AdmmSolution::converged`]).
+    pub fn solve(
+        &self,
+        b: &DMatrix<f64>,
+        x0: &DMatrix<f64>,
+        opts: &AdmmOptions,
+    ) -> Result<AdmmSolution> {
+        let n = self.d.len();
+        let m = b.ncols();
+        if b.nrows() != n || x0.shape() != (n, m) || m == 0 {
+            return Err(Error::invalid(format!(
+                "ADMM of dimension {n}: b is {}×{}, x0 is {}×{}",
+                b.nrows(),
+                b.ncols(),
+                x0.nrows(),
+                x0.ncols()
+            )));
+        }
+        if !(opts.gap_tol > 0.0 && opts.rho_scale > 0.0) {
+            return Err(Error::invalid("ADMM needs gap_tol > 0 and rho_scale > 0"));
+        }
+        let mut rho = self.rho0 * opts.rho_scale;
+        let mut fac = self.factor(rho)?;
+        let mut factorizations = 1;
+        let mut z = x0.clone();
+        self.constraint.project_rows(&mut z);
+        let mut u = DMatrix::<f64>::zeros(n, m);
+        let mut x = z.clone();
+        let mut row = vec![0.0; m];
+        let mut pre = DMatrix::<f64>::zeros(n, m);
+        let (mut rp, mut rd) = (f64::INFINITY, f64::INFINITY);
+        let mut last_gap = f64::INFINITY;
+        let fac_a = self.symbolic.factorize(&self.a)?;
+        factorizations += 1;
+        let debug = std::env::var_os("DEFORMLAB_ADMM_DEBUG").is_some();
+        for it in 1..=opts.max_iter.max(1) {
+            // X-step.
+            for k in 0..m {
+                for i in 0..n {
+                    x[(i, k)] = rho * self.d[i] * (z[(i, k)] - u[(i, k)]) - b[(i, k)];
+                }
+            }
+            fac.solve_in_place(x.as_mut_slice(), m)?;
+            // Z-step and U-step.
+            rp = 0.0;
+            rd = 0.0;
+            for i in 0..n {
+                for k in 0..m {
+                    row[k] = x[(i, k)] + u[(i, k)];
+                    pre[(i, k)] = row[k];
+                }
+                self.constraint.project(&mut row);
+                for k in 0..m {
+                    rd = rd.max((row[k] - z[(i, k)]).abs() * self.d[i] / self.diag_a[i]);
+                    z[(i, k)] = row[k];
+                    let r = x[(i, k)] - row[k];
+                    rp = rp.max(r.abs());
+                    u[(i, k)] += r;
+                }
+            }
+            rd *= rho;
+            let check = if opts.adapt_every == 0 {
+                25
+            } else {
+                opts.adapt_every
+            };
+            if it % check == 0 || it == opts.max_iter {
+                let primal = self.objective(&z, b);
+                let mut lambda = u.clone();
+                for i in 0..n {
+                    let s = rho * self.d[i];
+                    for k in 0..m {
+                        lambda[(i, k)] *= s;
+                    }
+                }
+                let gap = primal - self.dual_bound(&fac_a, &lambda, b)?;
+                if debug {
+                    eprintln!("admm it {it} rho {rho:.3e} rp {rp:.2e} rd {rd:.2e} gap {gap:.3e} objective {primal:.6e}");
+                }
+                if gap <= opts.gap_tol {
+                    return Ok(AdmmSolution {
+                        x: z,
+                        pre_projection: pre,
+                        iterations: it,
+                        factorizations,
+                        primal_residual: rp,
+                        dual_residual: rd,
+                        duality_gap: gap,
+                        converged: true,
+                    });
+                }
+                last_gap = gap;
+            }
+            if opts.adapt_every > 0 && it % opts.adapt_every == 0 {
+                // Residual balancing: ρ up when primal lags, down when dual
+                // lags; U is scaled so that the unscaled multiplier ρU stays.
+                let factor = if rp > 10.0 * rd {
+                    2.0
+                } else if rd > 10.0 * rp {
+                    0.5
+                } else {
+                    1.0
+                };
+                if factor != 1.0 {
+                    rho *= factor;
+                    u /= factor;
+                    fac = self.factor(rho)?;
+                    factorizations += 1;
+                }
+            }
+        }
+        Ok(AdmmSolution {
+            x: z,
+            pre_projection: pre,
+            iterations: opts.max_iter.max(1),
+            factorizations,
+            primal_residual: rp,
+            dual_residual: rd,
+            duality_gap: last_gap,
+            converged: false,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::solve::sparse_from_triplets;
+
+    fn tridiag(n: usize) -> SparseMatrix {
+        let mut t = Vec::new();
+        for i in 0..n {
+            t.push((i, i, 2.0));
+            if i + 1 < n {
+                t.push((i, i + 1, -1.0));
+                t.push((i + 1, i, -1.0));
+            }
+        }
+        sparse_from_triplets(n, n, t)
+    }
+
+    #[test]
+    fn simplex_projection() {
+        let mut v = [0.5, 0.5];
+        project_to_simplex(&mut v);
+        assert_eq!(v, [0.5, 0.5]);
+        let mut v = [2.0, 0.0, -1.0];
+        project_to_simplex(&mut v);
+        assert_eq!(v, [1.0, 0.0, 0.0]);
+        let mut v = [0.3, 0.3, 0.3];
+        project_to_simplex(&mut v);
+        assert!(v.iter().all(|&x| (x - 1.0 / 3.0).abs() < 1e-15));
+    }
+
+    #[test]
+    fn box_qp_matches_clamped_1d_solution() {
+        // min ½xᵀTx − 3·1ᵀx on [0, 1]: the unconstrained optimum exceeds 1 in
+        // the middle.
+        let n = 9;
+        let qp = BoxQp::new(&tridiag(n)).unwrap();
+        let b = vec![-3.0; n];
+        let s = qp.solve(&b, 0.0, 1.0, None, 50, 1e-10).unwrap();
+        assert!(s.x.iter().all(|&v| (0.0..=1.0).contains(&v)));
+        // KKT: gradient ≥ 0 at lower, ≤ 0 at upper, 0 in between.
+        let g = qp.gradient(&s.x, &b);
+        for i in 0..n {
+            if s.x[i] <= 0.0 {
+                assert!(g[i] >= -1e-9);
+            } else if s.x[i] >= 1.0 {
+                assert!(g[i] <= 1e-9);
+            } else {
+                assert!(g[i].abs() < 1e-9, "{i} {}", g[i]);
+            }
+        }
+    }
+}
