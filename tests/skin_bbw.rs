@@ -1,4 +1,297 @@
-//! Bounded biharmonic weights: properties on random small meshes.
+//! Bounded biharmonic weights (BDT Eq. 1): properties on random small meshes
+//! and comparison against an independent dense reference solver.
+//! `cargo test --release --test skin_bbw`
+
+use deformlab::mesh::primitives::icosphere;
+use deformlab::ops::{cotan_laplacian, mass_matrix, MassKind};
+use deformlab::skin::bbw::{bounded_biharmonic_weights, BbwOptions, Biharmonic, WeightMode};
+use deformlab::skin::{lbs, Affine};
+use deformlab::{Mesh, Point};
+use nalgebra::DMatrix;
+use proptest::prelude::*;
+use rand::seq::index::sample;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Icosphere of `level` with each vertex moved radially by `1 + noise·u`.
+fn perturbed_sphere(level: u32, noise: f64, seed: u64) -> Mesh {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let s = icosphere(level);
+    let moved = s
+        .vertices()
+        .iter()
+        .map(|p| p * (1.0 + noise * rng.random_range(-1.0..=1.0)))
+        .collect();
+    s.with_vertices(moved).unwrap()
+}
+
+fn random_handles(n: usize, k: usize, seed: u64) -> Vec<usize> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x9e37_79b9);
+    sample(&mut rng, n, k).into_vec()
+}
+
+fn check_common(w: &DMatrix<f64>, handles: &[usize], bounds: bool, sum_tol: f64) {
+    let (n, nh) = w.shape();
+    assert_eq!(nh, handles.len());
+    for (k, &h) in handles.iter().enumerate() {
+        for j in 0..nh {
+            let want = if j == k { 1.0 } else { 0.0 };
+            assert!(
+                (w[(h, j)] - want).abs() < 1e-12,
+                "interpolation at handle {k}"
+            );
+        }
+    }
+    for i in 0..n {
+        let s: f64 = w.row(i).sum();
+        assert!((s - 1.0).abs() <= sum_tol, "row {i} sums to {s}");
+        if bounds {
+            for k in 0..nh {
+                let v = w[(i, k)];
+                assert!((0.0..=1.0).contains(&v), "w[{i},{k}] = {v} out of [0, 1]");
+            }
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 6, ..ProptestConfig::default() })]
+
+    #[test]
+    fn weights_properties(
+        level in 2u32..=3,
+        noise in 0.0f64..0.15,
+        n_handles in 2usize..=8,
+        seed in any::<u64>(),
+    ) {
+        let mesh = perturbed_sphere(level, noise, seed);
+        let handles = random_handles(mesh.n_vertices(), n_handles, seed);
+        let bh = Biharmonic::new(&mesh).unwrap();
+
+        let coupled = bh.weights(&handles, &BbwOptions::with_mode(WeightMode::Coupled)).unwrap();
+        check_common(&coupled, &handles, true, 1e-6);
+        let per = bh.weights(&handles, &BbwOptions::with_mode(WeightMode::PerHandle)).unwrap();
+        check_common(&per, &handles, true, 1e-12);
+        let unb = bh.weights(&handles, &BbwOptions::with_mode(WeightMode::Unbounded)).unwrap();
+        // No normalisation: Q·1 = 0 makes them sum to one by themselves.
+        check_common(&unb, &handles, false, 1e-7);
+
+        // Coupled is the optimum of Eq. 1; normalised per-handle weights are
+        // feasible for it, and unbounded weights solve a relaxation.
+        let (ec, ep, eu) = (bh.energy(&coupled).unwrap(), bh.energy(&per).unwrap(), bh.energy(&unb).unwrap());
+        prop_assert!(ec <= ep * (1.0 + 1e-9), "coupled {ec} > per-handle {ep}");
+        prop_assert!(eu <= ec * (1.0 + 1e-9), "unbounded {eu} > coupled {ec}");
+
+        // LBS with identity transforms reproduces the mesh.
+        let id = vec![Affine::identity(); n_handles];
+        for w in [&coupled, &per, &unb] {
+            let q = lbs(mesh.vertices(), w, &id).unwrap();
+            for (a, b) in q.iter().zip(mesh.vertices()) {
+                prop_assert!((a - b).norm() < 1e-9);
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Independent dense reference: Q = L M⁻¹ L assembled densely, accelerated
+// projected gradient (FISTA with adaptive restart) run to convergence.
+// ---------------------------------------------------------------------------
+
+fn dense_q(mesh: &Mesh) -> DMatrix<f64> {
+    let n = mesh.n_vertices();
+    let mut l = DMatrix::<f64>::zeros(n, n);
+    for (i, j, &v) in cotan_laplacian(mesh).triplet_iter() {
+        l[(i, j)] += v;
+    }
+    let m = mass_matrix(mesh, MassKind::Voronoi);
+    let minv = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
+        n,
+        m.iter().map(|x| 1.0 / x),
+    ));
+    &l * minv * &l
+}
+
+/// Minimises Σ_k ½ w_kᵀ Q w_k over weights with fixed handle rows, each free
+/// row projected by `project` (box or simplex).
+fn fista(
+    q: &DMatrix<f64>,
+    handles: &[usize],
+    project: &dyn Fn(&mut [f64]),
+    iters: usize,
+) -> DMatrix<f64> {
+    let n = q.nrows();
+    let nh = handles.len();
+    let is_handle: Vec<bool> = (0..n).map(|i| handles.contains(&i)).collect();
+    // Lipschitz constant: power iteration on Q.
+    let mut v = DMatrix::<f64>::from_element(n, 1, 1.0);
+    let mut lip = 0.0;
+    for _ in 0..500 {
+        let u = q * &v;
+        lip = u.norm() / v.norm();
+        v = u / lip;
+    }
+    let step = 1.0 / (1.05 * lip);
+    let mut w = DMatrix::<f64>::from_element(n, nh, 1.0 / nh as f64);
+    let fix = |w: &mut DMatrix<f64>| {
+        for (k, &h) in handles.iter().enumerate() {
+            for j in 0..nh {
+                w[(h, j)] = if j == k { 1.0 } else { 0.0 };
+            }
+        }
+    };
+    fix(&mut w);
+    let mut y = w.clone();
+    let mut t = 1.0f64;
+    let mut row = vec![0.0; nh];
+    for _ in 0..iters {
+        let g = q * &y;
+        let mut next = &y - step * g;
+        for i in 0..n {
+            if is_handle[i] {
+                continue;
+            }
+            for k in 0..nh {
+                row[k] = next[(i, k)];
+            }
+            project(&mut row);
+            for k in 0..nh {
+                next[(i, k)] = row[k];
+            }
+        }
+        fix(&mut next);
+        let t_next = (1.0 + (1.0 + 4.0 * t * t).sqrt()) / 2.0;
+        // Restart when the momentum points uphill.
+        let uphill = ((&y - &next).component_mul(&(&next - &w))).sum() > 0.0;
+        if uphill {
+            t = 1.0;
+            y = next.clone();
+        } else {
+            y = &next + ((t - 1.0) / t_next) * (&next - &w);
+            t = t_next;
+        }
+        w = next;
+    }
+    w
+}
+
+fn simplex(v: &mut [f64]) {
+    // Bisection on the threshold (independent of the sort-based version).
+    let (mut lo, mut hi) = (
+        v.iter().cloned().fold(f64::INFINITY, f64::min) - 1.0,
+        v.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+    );
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        let s: f64 = v.iter().map(|x| (x - mid).max(0.0)).sum();
+        if s > 1.0 {
+            lo = mid
+        } else {
+            hi = mid
+        }
+    }
+    let th = 0.5 * (lo + hi);
+    for x in v.iter_mut() {
+        *x = (*x - th).max(0.0);
+    }
+}
+
+#[test]
+fn matches_dense_projected_gradient_reference() {
+    let mesh = perturbed_sphere(1, 0.1, 7);
+    let handles = [0usize, 17, 30];
+    let bh = Biharmonic::new(&mesh).unwrap();
+    let q = dense_q(&mesh);
+    let iters = 15_000;
+
+    // Per handle: box projection per entry, then normalise.
+    let boxed = fista(
+        &q,
+        &handles,
+        &|r: &mut [f64]| r.iter_mut().for_each(|x| *x = x.clamp(0.0, 1.0)),
+        iters,
+    );
+    let mut reference = boxed.clone();
+    for i in 0..reference.nrows() {
+        let s: f64 = reference.row(i).sum();
+        reference.row_mut(i).unscale_mut(s);
+    }
+    let ours = bh
+        .weights(&handles, &BbwOptions::with_mode(WeightMode::PerHandle))
+        .unwrap();
+    let diff = (&ours - &reference).abs().max();
+    assert!(diff < 1e-6, "per-handle differs from reference by {diff}");
+
+    // Coupled: simplex projection of each row.
+    let reference = fista(&q, &handles, &simplex, iters);
+    let ours = bh.weights(&handles, &BbwOptions::default()).unwrap();
+    let diff = (&ours - &reference).abs().max();
+    assert!(diff < 1e-6, "coupled differs from reference by {diff}");
+    let (eo, er) = (bh.energy(&ours).unwrap(), bh.energy(&reference).unwrap());
+    assert!(
+        eo <= er * (1.0 + 1e-9),
+        "coupled energy {eo} above reference {er}"
+    );
+}
+
+#[test]
+fn bad_handles_are_errors() {
+    let mesh = icosphere(2);
+    let opts = BbwOptions::default();
+    for mode in [
+        WeightMode::Coupled,
+        WeightMode::PerHandle,
+        WeightMode::Unbounded,
+    ] {
+        let o = BbwOptions { mode, ..opts };
+        assert!(
+            bounded_biharmonic_weights(&mesh, &[3, 5, 3], &o).is_err(),
+            "duplicate"
+        );
+        assert!(bounded_biharmonic_weights(&mesh, &[], &o).is_err(), "empty");
+        assert!(
+            bounded_biharmonic_weights(&mesh, &[1, 100_000], &o).is_err(),
+            "range"
+        );
+    }
+    // Two disjoint spheres, handles in only one: singular, said clearly.
+    let a = icosphere(1);
+    let n = a.n_vertices();
+    let mut v: Vec<Point> = a.vertices().to_vec();
+    v.extend(
+        a.vertices()
+            .iter()
+            .map(|p| p + nalgebra::Vector3::new(5.0, 0.0, 0.0)),
+    );
+    let mut f = a.faces().to_vec();
+    f.extend(a.faces().iter().map(|t| [t[0] + n, t[1] + n, t[2] + n]));
+    let two = Mesh::new(v.clone(), f.clone()).unwrap();
+    let e = bounded_biharmonic_weights(&two, &[0, 1], &opts).unwrap_err();
+    assert!(e.to_string().contains("component"), "{e}");
+    assert!(bounded_biharmonic_weights(&two, &[0, n + 1], &opts).is_ok());
+    // An isolated (unreferenced) vertex.
+    v.push(Point::new(9.0, 9.0, 9.0));
+    let iso = Mesh::new(v, f).unwrap();
+    let e = Biharmonic::new(&iso).unwrap_err();
+    assert!(e.to_string().contains("isolated"), "{e}");
+}
+
+#[test]
+fn all_vertices_handles_and_single_handle() {
+    let mesh = icosphere(1);
+    let n = mesh.n_vertices();
+    let all: Vec<usize> = (0..n).rev().collect();
+    let w = bounded_biharmonic_weights(&mesh, &all, &BbwOptions::default()).unwrap();
+    check_common(&w, &all, true, 0.0);
+    for mode in [
+        WeightMode::Coupled,
+        WeightMode::PerHandle,
+        WeightMode::Unbounded,
+    ] {
+        let w = bounded_biharmonic_weights(&mesh, &[4], &BbwOptions::with_mode(mode)).unwrap();
+        assert!(w.iter().all(|&x| (x - 1.0).abs() < 1e-9), "{mode:?}");
+    }
+}
 
 #[test]
 #[ignore = "benchmark: cargo test --release --test skin_bbw -- --ignored --nocapture"]

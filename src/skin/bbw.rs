@@ -37,7 +37,9 @@ use nalgebra::DMatrix;
 
 use crate::mesh::Mesh;
 use crate::ops::{cotan_laplacian, mass_matrix, MassKind};
-use crate::solve::qp::{project_to_simplex, AdmmOptions, BoxQp, RowAdmm, RowConstraint};
+use crate::solve::qp::{
+    project_to_simplex, simplex_rows_qp, AdmmOptions, BoxQp, RowAdmm, RowConstraint,
+};
 use crate::solve::{sparse_from_triplets, SparseCholesky, SparseMatrix};
 use crate::{Error, Result};
 
@@ -59,24 +61,18 @@ pub enum WeightMode {
 pub struct BbwOptions {
     /// Which problem to solve.
     pub mode: WeightMode,
-    /// [`WeightMode::PerHandle`]: maximum active-set iterations per handle.
+    /// Active-set iterations allowed: per handle (PerHandle), and again for
+    /// the coupled support iteration (Coupled). Not settling is an error.
     pub max_iter: usize,
-    /// [`WeightMode::PerHandle`]: active-set tolerance (bound violation
-    /// relative to the [0, 1] box; multiplier sign relative to the largest
-    /// linear term). The result moves by at most `tol` when clamped.
+    /// Active-set tolerance, in weight units: a bound may be violated by at
+    /// most `tol` before the vertex is fixed, and a fixed vertex is released
+    /// when its multiplier `g_i` would move it by more than `tol` on its own
+    /// (`|g_i| > tol·Q_ii`, wrong sign). Results are clamped to the bounds.
     pub tol: f64,
-    /// [`WeightMode::Coupled`]: ADMM iterations, residual tolerance and
-    /// penalty. Not converging within `admm.max_iter` is an error.
+    /// ADMM (box constraints, all handles at once, one factorisation) used
+    /// to guess the initial active sets of the per-handle solves;
+    /// `admm.max_iter` iterations are run (`gap_tol = 0`).
     pub admm: AdmmOptions,
-    /// [`WeightMode::PerHandle`]: ADMM iterations used to guess the active
-    /// sets before the active-set method (0: start from the unbounded
-    /// solution).
-    pub admm_warm_start: usize,
-    /// [`WeightMode::Coupled`]: stop when the certified duality gap is at
-    /// most `rel_gap` × the biharmonic energy of the unbounded weights (a
-    /// lower bound of the optimal energy), i.e. the returned energy is
-    /// within that relative amount of the optimum.
-    pub rel_gap: f64,
 }
 
 impl Default for BbwOptions {
@@ -85,9 +81,12 @@ impl Default for BbwOptions {
             mode: WeightMode::Coupled,
             max_iter: 200,
             tol: 1e-8,
-            admm: AdmmOptions::default(),
-            admm_warm_start: 100,
-            rel_gap: 1e-4,
+            admm: AdmmOptions {
+                max_iter: 100,
+                gap_tol: 0.0,
+                rho_scale: 1e-2,
+                adapt_every: 25,
+            },
         }
     }
 }
@@ -109,15 +108,13 @@ pub struct BbwReport {
     pub weights: DMatrix<f64>,
     /// Numeric factorisations done.
     pub factorizations: usize,
-    /// Active-set iterations summed over handles (PerHandle) or ADMM
-    /// iterations (Coupled); 0 for Unbounded.
+    /// Active-set iterations: summed over handles (PerHandle); that plus
+    /// the coupled support iterations (Coupled); 0 for Unbounded.
     pub iterations: usize,
-    /// Coupled: final `max|W − Z|` and `max|Z − Z_prev|`; 0 otherwise.
-    pub primal_residual: f64,
-    pub dual_residual: f64,
-    /// Coupled: certified relative suboptimality (duality gap / energy of
-    /// the unbounded weights); 0 otherwise.
-    pub duality_gap: f64,
+    /// Coupled: support iterations of the coupled solve alone.
+    pub coupled_iterations: usize,
+    /// Coupled: unknowns of the last reduced coupled system.
+    pub coupled_unknowns: usize,
 }
 
 /// Handle-independent precomputation for biharmonic weights on one mesh:
@@ -179,13 +176,13 @@ impl Biharmonic {
         let mut label = vec![usize::MAX; n];
         let mut component = vec![0; n];
         let mut n_components = 0;
-        for i in 0..n {
+        for (i, c) in component.iter_mut().enumerate() {
             let r = find(&mut parent, i);
             if label[r] == usize::MAX {
                 label[r] = n_components;
                 n_components += 1;
             }
-            component[i] = label[r];
+            *c = label[r];
         }
         Ok(Biharmonic {
             q,
@@ -307,9 +304,8 @@ impl Biharmonic {
             weights: DMatrix::zeros(0, 0),
             factorizations: 0,
             iterations: 0,
-            primal_residual: 0.0,
-            dual_residual: 0.0,
-            duality_gap: 0.0,
+            coupled_iterations: 0,
+            coupled_unknowns: 0,
         };
         if nf == 0 {
             report.weights = w;
@@ -344,89 +340,14 @@ impl Biharmonic {
                 report.factorizations = 1;
                 fac.try_solve(&(-&b))?
             }
-            WeightMode::PerHandle => {
-                let qp = BoxQp::new(&qff)?;
-                let fac = qp.symbolic().factorize(&qff)?;
-                let unbounded = fac.try_solve(&(-&b))?;
-                report.factorizations = 1;
-                // Warm start: a few ADMM iterations on all handles at once
-                // (box constraints, one factorisation of Q_ff + ρM_f).
-                let warm = if opts.admm_warm_start > 0 {
-                    let mf = diagonal(&qff);
-                    let admm = RowAdmm::new(&qff, &mf, RowConstraint::Box(0.0, 1.0))?;
-                    let aopts = AdmmOptions {
-                        max_iter: opts.admm_warm_start,
-                        ..opts.admm
-                    };
-                    let s = admm.solve(&b, &unbounded, &aopts)?;
-                    report.factorizations += s.factorizations;
-                    s.pre_projection
-                } else {
-                    unbounded.clone()
-                };
-                let mut wf = DMatrix::zeros(nf, nh);
-                for k in 0..nh {
-                    let bk: Vec<f64> = b.column(k).iter().copied().collect();
-                    let x0: Vec<f64> = warm.column(k).iter().copied().collect();
-                    let s = qp.solve(&bk, 0.0, 1.0, Some(&x0), opts.max_iter, opts.tol)?;
-                    report.factorizations += s.iterations;
-                    report.iterations += s.iterations;
-                    wf.column_mut(k).copy_from_slice(&s.x);
-                }
-                // Row normalisation; a row that is all zero (possible in
-                // principle) falls back to the simplex projection of the
-                // unbounded row.
-                let mut row = vec![0.0; nh];
-                for i in 0..nf {
-                    let s: f64 = wf.row(i).sum();
-                    if s > 1e-12 {
-                        for k in 0..nh {
-                            wf[(i, k)] /= s;
-                        }
-                    } else {
-                        for k in 0..nh {
-                            row[k] = unbounded[(i, k)];
-                        }
-                        project_to_simplex(&mut row);
-                        for k in 0..nh {
-                            wf[(i, k)] = row[k];
-                        }
-                    }
-                }
-                wf
-            }
+            WeightMode::PerHandle => per_handle(&qff, &b, opts, &mut report)?,
             WeightMode::Coupled => {
-                let mf = diagonal(&qff);
-                let admm = RowAdmm::new(&qff, &mf, RowConstraint::Simplex)?;
-                let fac = admm.symbolic().factorize(&qff)?;
-                let x0 = fac.try_solve(&(-&b))?;
-                // Energy scale: E(W) = P(W_f) + ½ Σ_k Q_{h_k h_k}; the gap
-                // tolerance is relative to the unbounded (smallest) energy.
-                let c: f64 = handles
-                    .iter()
-                    .map(|&h| 0.5 * self.q.get_entry(h, h).map_or(0.0, |e| e.into_value()))
-                    .sum();
-                let scale = (admm.objective(&x0, &b) + c).abs().max(f64::MIN_POSITIVE);
-                let aopts = AdmmOptions {
-                    gap_tol: opts.rel_gap * scale,
-                    ..opts.admm
-                };
-                let s = admm.solve(&b, &x0, &aopts)?;
-                report.factorizations = 1 + s.factorizations;
-                report.iterations = s.iterations;
-                report.primal_residual = s.primal_residual;
-                report.dual_residual = s.dual_residual;
-                report.duality_gap = s.duality_gap / scale;
-                if !s.converged {
-                    return Err(Error::numerical(format!(
-                        "coupled bounded biharmonic weights: ADMM did not reach the relative \
-                         duality gap {:e} in {} iterations (gap {:.2e}); raise admm.max_iter or \
-                         rel_gap",
-                        opts.rel_gap,
-                        s.iterations,
-                        s.duality_gap / scale
-                    )));
-                }
+                let x0 = per_handle(&qff, &b, opts, &mut report)?;
+                let s = simplex_rows_qp(&qff, &b, &x0, opts.max_iter, opts.tol)?;
+                report.factorizations += s.iterations;
+                report.iterations += s.iterations;
+                report.coupled_iterations = s.iterations;
+                report.coupled_unknowns = s.n_variables;
                 s.x
             }
         };
@@ -438,6 +359,66 @@ impl Biharmonic {
         report.weights = w;
         Ok(report)
     }
+}
+
+/// Per-handle bound-constrained weights on the free vertices, rows
+/// normalised (see [`WeightMode::PerHandle`]).
+fn per_handle(
+    qff: &SparseMatrix,
+    b: &DMatrix<f64>,
+    opts: &BbwOptions,
+    report: &mut BbwReport,
+) -> Result<DMatrix<f64>> {
+    let (nf, nh) = b.shape();
+    let qp = BoxQp::new(qff)?;
+    let fac = qp.symbolic().factorize(qff)?;
+    let unbounded = fac.try_solve(&(-b))?;
+    report.factorizations = 1;
+    // Warm start: a few ADMM iterations on all handles at once
+    // (box constraints, one factorisation of Q_ff + ρM_f).
+    let warm = if opts.admm.max_iter > 0 {
+        let mf = diagonal(qff);
+        let admm = RowAdmm::new(qff, &mf, RowConstraint::Box(0.0, 1.0))?;
+        let aopts = AdmmOptions {
+            gap_tol: 0.0,
+            ..opts.admm
+        };
+        let s = admm.solve(b, &unbounded, &aopts)?;
+        report.factorizations += s.factorizations;
+        s.pre_projection
+    } else {
+        unbounded.clone()
+    };
+    let mut wf = DMatrix::zeros(nf, nh);
+    for k in 0..nh {
+        let bk: Vec<f64> = b.column(k).iter().copied().collect();
+        let x0: Vec<f64> = warm.column(k).iter().copied().collect();
+        let s = qp.solve(&bk, 0.0, 1.0, Some(&x0), opts.max_iter, opts.tol)?;
+        report.factorizations += s.iterations;
+        report.iterations += s.iterations;
+        wf.column_mut(k).copy_from_slice(&s.x);
+    }
+    // Row normalisation; a row that is all zero (possible in
+    // principle) falls back to the simplex projection of the
+    // unbounded row.
+    let mut row = vec![0.0; nh];
+    for i in 0..nf {
+        let s: f64 = wf.row(i).sum();
+        if s > 1e-12 {
+            for k in 0..nh {
+                wf[(i, k)] /= s;
+            }
+        } else {
+            for k in 0..nh {
+                row[k] = unbounded[(i, k)];
+            }
+            project_to_simplex(&mut row);
+            for k in 0..nh {
+                wf[(i, k)] = row[k];
+            }
+        }
+    }
+    Ok(wf)
 }
 
 /// Stored diagonal of a square sparse matrix.

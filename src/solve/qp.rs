@@ -277,7 +277,8 @@ pub struct AdmmOptions {
     /// Stop when the duality gap (objective at the feasible `Z` minus a
     /// Lagrange dual bound, see [`AdmmSolution::duality_gap`]) is at most
     /// this (absolute, in objective units); checked every `adapt_every`
-    /// iterations (every 25 if that is 0).
+    /// iterations (every 25 if that is 0). `0` disables the check (and the
+    /// factorisation of `A` it needs): exactly `max_iter` iterations run.
     pub gap_tol: f64,
     /// Initial penalty relative to `ρ₀ = median_i(A_ii / D_i)`.
     pub rho_scale: f64,
@@ -410,7 +411,7 @@ impl RowAdmm {
         let mut ratio: Vec<f64> = diag_a.iter().zip(d).map(|(a, d)| a / d).collect();
         ratio.sort_unstable_by(f64::total_cmp);
         let rho0 = ratio[n / 2];
-        if !(rho0 > 0.0) {
+        if !(rho0.is_finite() && rho0 > 0.0) {
             return Err(Error::invalid(
                 "ADMM matrix needs a positive stored diagonal",
             ));
@@ -505,8 +506,8 @@ impl RowAdmm {
                 x0.ncols()
             )));
         }
-        if !(opts.gap_tol > 0.0 && opts.rho_scale > 0.0) {
-            return Err(Error::invalid("ADMM needs gap_tol > 0 and rho_scale > 0"));
+        if !(opts.gap_tol >= 0.0 && opts.rho_scale > 0.0) {
+            return Err(Error::invalid("ADMM needs gap_tol ≥ 0 and rho_scale > 0"));
         }
         let mut rho = self.rho0 * opts.rho_scale;
         let mut fac = self.factor(rho)?;
@@ -519,8 +520,14 @@ impl RowAdmm {
         let mut pre = DMatrix::<f64>::zeros(n, m);
         let (mut rp, mut rd) = (f64::INFINITY, f64::INFINITY);
         let mut last_gap = f64::INFINITY;
-        let fac_a = self.symbolic.factorize(&self.a)?;
-        factorizations += 1;
+        // The dual bound needs A⁻¹; gap_tol = 0 runs max_iter iterations
+        // without gap checks (e.g. as a warm start).
+        let fac_a = if opts.gap_tol > 0.0 {
+            factorizations += 1;
+            Some(self.symbolic.factorize(&self.a)?)
+        } else {
+            None
+        };
         let debug = std::env::var_os("DEFORMLAB_ADMM_DEBUG").is_some();
         for it in 1..=opts.max_iter.max(1) {
             // X-step.
@@ -553,7 +560,10 @@ impl RowAdmm {
             } else {
                 opts.adapt_every
             };
-            if it % check == 0 || it == opts.max_iter {
+            if let Some(fac_a) = fac_a
+                .as_ref()
+                .filter(|_| it % check == 0 || it == opts.max_iter)
+            {
                 let primal = self.objective(&z, b);
                 let mut lambda = u.clone();
                 for i in 0..n {
@@ -562,7 +572,7 @@ impl RowAdmm {
                         lambda[(i, k)] *= s;
                     }
                 }
-                let gap = primal - self.dual_bound(&fac_a, &lambda, b)?;
+                let gap = primal - self.dual_bound(fac_a, &lambda, b)?;
                 if debug {
                     eprintln!("admm it {it} rho {rho:.3e} rp {rp:.2e} rd {rd:.2e} gap {gap:.3e} objective {primal:.6e}");
                 }
@@ -611,6 +621,216 @@ impl RowAdmm {
     }
 }
 
+/// Result of [`simplex_rows_qp`].
+#[derive(Clone, Debug)]
+pub struct SimplexQpSolution {
+    /// The minimiser (every row exactly on the simplex).
+    pub x: DMatrix<f64>,
+    /// Active-set iterations (= sparse factorisations).
+    pub iterations: usize,
+    /// Size of the last reduced system.
+    pub n_variables: usize,
+}
+
+/// `min Σ_k ½ x_kᵀA x_k + b_kᵀx_k` over `X` (n × m) with every row on the
+/// probability simplex (`X ≥ 0`, rows sum to one), `A` sparse symmetric
+/// positive definite, by a primal–dual active-set method on the row
+/// supports `S_i = {k : X_ik > 0}`.
+///
+/// For fixed supports, each row's partition of unity is eliminated by
+/// writing one support entry (the pivot `p(i)`, its lowest column) as one
+/// minus the others; the remaining `Σ_i (|S_i| − 1)` unknowns solve one
+/// sparse SPD system `Eᵀ(I ⊗ A)E v = −Eᵀ(A C + B)` (Cholesky, with a fresh
+/// ordering since the pattern changes). Then entries below `−tol` leave
+/// their support, and a column `k ∉ S_i` joins it when its multiplier
+/// `G_ik − G_ip(i)` (`G = A X + B`, the cost of moving weight from the pivot
+/// to `k`) is below `−tol · A_ii`. When the supports no longer change the
+/// KKT conditions hold to `tol` (per-row, scale-free) and the result is the
+/// optimum; entries in `[−tol, 0)` are set to 0 and the row rescaled.
+///
+/// `x0` (n × m) seeds the supports (`x0_ik > 0`; the largest entry if none).
+pub fn simplex_rows_qp(
+    a: &SparseMatrix,
+    b: &DMatrix<f64>,
+    x0: &DMatrix<f64>,
+    max_iter: usize,
+    tol: f64,
+) -> Result<SimplexQpSolution> {
+    let n = a.nrows();
+    let m = b.ncols();
+    if a.ncols() != n || b.nrows() != n || x0.shape() != (n, m) || m == 0 {
+        return Err(Error::invalid(format!(
+            "simplex-rows QP: A is {}×{}, b is {}×{}, x0 is {}×{}",
+            a.nrows(),
+            a.ncols(),
+            b.nrows(),
+            b.ncols(),
+            x0.nrows(),
+            x0.ncols()
+        )));
+    }
+    let mut diag = vec![0.0; n];
+    for (i, j, &v) in a.triplet_iter() {
+        if i == j {
+            diag[i] = v;
+        }
+    }
+    if let Some(i) = diag.iter().position(|&d| !(d.is_finite() && d > 0.0)) {
+        return Err(Error::invalid(format!(
+            "simplex-rows QP needs a positive diagonal; A({i}, {i}) = {}",
+            diag[i]
+        )));
+    }
+    // support[i*m + k]
+    let mut support = vec![false; n * m];
+    for i in 0..n {
+        let mut any = false;
+        for k in 0..m {
+            if x0[(i, k)] > 0.0 {
+                support[i * m + k] = true;
+                any = true;
+            }
+        }
+        if !any {
+            let k = (0..m)
+                .max_by(|&p, &q| x0[(i, p)].total_cmp(&x0[(i, q)]).then(q.cmp(&p)))
+                .unwrap_or(0);
+            support[i * m + k] = true;
+        }
+    }
+    let (off, rows, vals) = (a.col_offsets(), a.row_indices(), a.values());
+    for it in 1..=max_iter.max(1) {
+        // Pivots and variable numbering.
+        let mut pivot = vec![0usize; n];
+        let mut var = vec![usize::MAX; n * m];
+        let mut nv = 0;
+        for i in 0..n {
+            let mut first = true;
+            for k in 0..m {
+                if support[i * m + k] {
+                    if first {
+                        pivot[i] = k;
+                        first = false;
+                    } else {
+                        var[i * m + k] = nv;
+                        nv += 1;
+                    }
+                }
+            }
+        }
+        // G0 = A C + B with C the pivot indicator.
+        let mut g0 = b.clone();
+        for j in 0..n {
+            for p in off[j]..off[j + 1] {
+                g0[(rows[p], pivot[j])] += vals[p];
+            }
+        }
+        let mut x = DMatrix::<f64>::zeros(n, m);
+        for i in 0..n {
+            x[(i, pivot[i])] = 1.0;
+        }
+        if nv > 0 {
+            let mut trip = Vec::new();
+            let mut rhs = vec![0.0; nv];
+            for i in 0..n {
+                for k in 0..m {
+                    let v = var[i * m + k];
+                    if v != usize::MAX {
+                        rhs[v] = -(g0[(i, k)] - g0[(i, pivot[i])]);
+                    }
+                }
+            }
+            for j in 0..n {
+                for p in off[j]..off[j + 1] {
+                    let i = rows[p];
+                    let aij = vals[p];
+                    for k in 0..m {
+                        let vi = var[i * m + k];
+                        if vi == usize::MAX {
+                            continue;
+                        }
+                        for l in 0..m {
+                            let vj = var[j * m + l];
+                            if vj == usize::MAX {
+                                continue;
+                            }
+                            let c =
+                                (k == l) as i32 - (k == pivot[j]) as i32 - (pivot[i] == l) as i32
+                                    + (pivot[i] == pivot[j]) as i32;
+                            if c != 0 {
+                                trip.push((vi, vj, aij * c as f64));
+                            }
+                        }
+                    }
+                }
+            }
+            let h = super::sparse_from_triplets(nv, nv, trip);
+            let fac = SparseCholesky::new(&h)?;
+            fac.solve_in_place(&mut rhs, 1)?;
+            for i in 0..n {
+                for k in 0..m {
+                    let v = var[i * m + k];
+                    if v != usize::MAX {
+                        x[(i, k)] = rhs[v];
+                        x[(i, pivot[i])] -= rhs[v];
+                    }
+                }
+            }
+        }
+        // Gradient and support update.
+        let mut g = b.clone();
+        for k in 0..m {
+            let xk: Vec<f64> = x.column(k).iter().copied().collect();
+            let mut gk: Vec<f64> = g.column(k).iter().copied().collect();
+            sym_matvec_add(a, &xk, &mut gk);
+            g.column_mut(k).copy_from_slice(&gk);
+        }
+        let mut changed = false;
+        for i in 0..n {
+            let gp = g[(i, pivot[i])];
+            for k in 0..m {
+                let s = &mut support[i * m + k];
+                if *s && x[(i, k)] < -tol {
+                    *s = false;
+                    changed = true;
+                } else if !*s && g[(i, k)] - gp < -tol * diag[i] {
+                    *s = true;
+                    changed = true;
+                }
+            }
+            if !(0..m).any(|k| support[i * m + k]) {
+                // Every support entry was negative (cannot happen for a row
+                // summing to one); keep the largest.
+                let k = (0..m)
+                    .max_by(|&p, &q| x[(i, p)].total_cmp(&x[(i, q)]).then(q.cmp(&p)))
+                    .unwrap_or(0);
+                support[i * m + k] = true;
+            }
+        }
+        if !changed {
+            for i in 0..n {
+                let mut sum = 0.0;
+                for k in 0..m {
+                    let v = x[(i, k)].max(0.0);
+                    x[(i, k)] = v;
+                    sum += v;
+                }
+                for k in 0..m {
+                    x[(i, k)] /= sum;
+                }
+            }
+            return Ok(SimplexQpSolution {
+                x,
+                iterations: it,
+                n_variables: nv,
+            });
+        }
+    }
+    Err(Error::numerical(format!(
+        "simplex-rows QP: supports did not settle within {max_iter} iterations (raise max_iter)"
+    )))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -652,13 +872,13 @@ mod tests {
         assert!(s.x.iter().all(|&v| (0.0..=1.0).contains(&v)));
         // KKT: gradient ≥ 0 at lower, ≤ 0 at upper, 0 in between.
         let g = qp.gradient(&s.x, &b);
-        for i in 0..n {
-            if s.x[i] <= 0.0 {
-                assert!(g[i] >= -1e-9);
-            } else if s.x[i] >= 1.0 {
-                assert!(g[i] <= 1e-9);
+        for (&x, &gi) in s.x.iter().zip(&g) {
+            if x <= 0.0 {
+                assert!(gi >= -1e-9);
+            } else if x >= 1.0 {
+                assert!(gi <= 1e-9);
             } else {
-                assert!(g[i].abs() < 1e-9, "{i} {}", g[i]);
+                assert!(gi.abs() < 1e-9, "{x} {gi}");
             }
         }
     }
