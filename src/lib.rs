@@ -12,6 +12,7 @@
 //! Algorithms never touch files: only `mesh::io` and `data` do I/O.
 
 pub mod arap;
+pub mod bench_bdt;
 pub mod bench_skin;
 pub mod data;
 pub mod error;

@@ -1,8 +1,13 @@
 //! BDT pipeline: key point selection (Algorithm 1) and deformation transfer
 //! (Sec. 3.6).
 
+pub mod keypoints;
 pub mod target;
 
+pub use keypoints::{
+    fit_keypoints, select_keypoints, ErrorNorm, FastBounds, FastOptions, KeypointFit,
+    KeypointOptions, KeypointSelection, SelectionMode, TraceStep,
+};
 pub use target::{
     handle_relative, mean_vertex_error, transfer, transfer_detailed, TransferFrame,
     TransferOptions, TransferResult,

@@ -1,0 +1,842 @@
+//! Automatic key point selection (BDT Sec. 3.5, Algorithm 1, Eq. 22–23).
+//!
+//! # Procedure
+//!
+//! 1. The source `A` and the deformed sources `A′_1..A′_m` are scaled into
+//!    the unit sphere with **one** similarity `S` (union of all meshes,
+//!    [`crate::ops::normalize_to_unit_sphere`]); errors are in those units.
+//! 2. `n_c` candidates `C` by farthest point sampling on `S(A)` (seeded
+//!    first vertex, geodesic by default).
+//! 3. `D_S(A)` for a trial set of handles `S ⊂ C`: skinning weights of `S`
+//!    on `A`, rotation groups (k-means on `W′ = [W, logr~, s~]` of all
+//!    deformed sources, BDT Eq. 15, `n_groups = |S|`, seeded), reduced ARAP
+//!    with E_diff ([`ReducedArap`]), solved towards every `A′_j`.
+//! 4. Error (BDT Eq. 22, the paper's normalisation):
+//!    `Ê = 1/(m n) Σ_j ‖D_S(A) − A′_j‖_F` (Frobenius norm, *not* squared).
+//!    Note that this is `RMS/√n` per source: on a mesh with thousands of
+//!    vertices `Ê` is tiny and the paper's threshold `ε = 0.03` is met by a
+//!    single key point. [`ErrorNorm::Rms`] (root-mean-square vertex distance,
+//!    averaged over the sources) is offered for a size-independent
+//!    threshold.
+//! 5. Stage 1: `S = {c_1}`, then repeatedly add the candidate of `C − S`
+//!    minimising `Ê` until `Ê < ε` or `|S| = max_keypoints`. Stage 2: for
+//!    each key point in turn try every replacement from `C − S`, take the
+//!    best only if it *strictly* lowers `Ê` (so the error never increases);
+//!    repeat passes until one changes nothing (or `max_swap_passes`).
+//!
+//! Candidate evaluations of one step run in parallel (rayon), are collected
+//! in candidate order and reduced by argmin with the lowest index on ties,
+//! so the result does not depend on the number of threads. A trial whose
+//! solver fails numerically (e.g. ADMM not converging) counts as `+∞`
+//! ([`KeypointSelection::failed_evaluations`]); invalid input is an error.
+//!
+//! # Modes
+//!
+//! * [`SelectionMode::Exact`] — the paper: weights recomputed by
+//!   [`Biharmonic::weights`] (bounded, [`KeypointOptions::weights`]) for every
+//!   trial set, k-means on all vertices ([`GROUP_KMEANS`]).
+//! * [`SelectionMode::Fast`] — see [`FastOptions`]:
+//!   - **Green's functions.** The unbounded biharmonic weights of any handle
+//!     set satisfy `Q w_k = Σ_{s∈S} μ_ks e_s` (Lagrange multipliers at the
+//!     handles), so with particular solutions `g_c` of `Q g_c = e_c − a`
+//!     (`a` = normalised mass, `1ᵀa = 1`; consistent because `1ᵀQ = 0`) of
+//!     every candidate, `w_k = Σ_s μ_ks g_s + c_k 1` with the small dense
+//!     saddle system `[G_SS 1; 1ᵀ 0] [μ_k; c_k] = [e_k; 0]`. One sparse
+//!     factorisation of `Q` with one grounded vertex and `n_c` solves are
+//!     done once; a trial set then costs O(n |S|²). These are *exactly* the
+//!     unbounded biharmonic weights (up to rounding; tested against
+//!     [`crate::skin::bbw::WeightMode::Unbounded`]).
+//!   - **Bounds.** [`FastBounds::ClampNormalize`] clamps them to `[0, 1]` and
+//!     renormalises each row to sum to one (not the BBW optimum: the weights
+//!     are not smooth where the clamp is active and a handle's weight can
+//!     reach beyond its region's boundary less far than BBW's).
+//!   - **Groups.** k-means on a fixed seeded subsample of vertices
+//!     ([`FastOptions::kmeans_sample`], fewer iterations), then every vertex
+//!     joins its nearest centre; the error is still evaluated on all vertices.
+//!   - **ARAP.** At most [`FastOptions::arap_max_iter`] local/global
+//!     iterations.
+//!   - **Verification (optional).** [`FastOptions::verify_top`] > 0
+//!     re-evaluates the best few candidates of every step with the exact
+//!     (bounded) weights and decides by the exact error.
+//!
+//!   The final set is always re-fitted with the mode's own weights; the
+//!   reported error and transforms are those of that fit.
+
+use std::time::Instant;
+
+use nalgebra::DMatrix;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+
+use crate::arap::{ArapOptions, ReducedArap};
+use crate::mesh::Mesh;
+use crate::ops::{
+    farthest_point_sampling, normalize_to_unit_sphere, FpsMetric, NormalizeReference, Similarity,
+};
+use crate::skin::bbw::{BbwOptions, Biharmonic};
+use crate::skin::groups::{group_features, GROUP_KMEANS};
+use crate::skin::{Affine, GroupFeatures};
+use crate::solve::kmeans::{kmeans_with, KMeansOptions};
+use crate::solve::{sparse_from_triplets, SparseCholesky};
+use crate::{Error, Point, Result};
+
+/// Exact (paper) or fast (approximate weights and groups) evaluation of a
+/// trial set.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SelectionMode {
+    /// Bounded biharmonic weights recomputed for every trial set.
+    #[default]
+    Exact,
+    /// Green's-function weights, subsampled k-means (see the module docs).
+    Fast,
+}
+
+/// How the per-source residual is summarised.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ErrorNorm {
+    /// BDT Eq. 22: `1/(m n) Σ_j ‖D_S(A) − A′_j‖_F`.
+    #[default]
+    Paper,
+    /// `1/m Σ_j ‖D_S(A) − A′_j‖_F / √n` (root-mean-square vertex distance,
+    /// averaged over the sources).
+    Rms,
+}
+
+/// How fast mode makes its unbounded weights admissible.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum FastBounds {
+    /// Clamp to `[0, 1]`, renormalise rows to sum to one.
+    #[default]
+    ClampNormalize,
+    /// Keep the unbounded biharmonic weights (they sum to one).
+    Unbounded,
+}
+
+/// Settings of [`SelectionMode::Fast`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct FastOptions {
+    /// Bounds on the Green's-function weights.
+    pub bounds: FastBounds,
+    /// Vertices (seeded subsample) that k-means clusters; all vertices are
+    /// then assigned to the nearest centre. 0 or ≥ n: all vertices.
+    pub kmeans_sample: usize,
+    /// k-means settings on the subsample.
+    pub kmeans: KMeansOptions,
+    /// Cap on the local/global iterations of a trial's ARAP solve.
+    pub arap_max_iter: usize,
+    /// Re-evaluate this many best candidates of every step exactly and
+    /// decide by the exact error (0: off).
+    pub verify_top: usize,
+}
+
+impl Default for FastOptions {
+    fn default() -> Self {
+        FastOptions {
+            bounds: FastBounds::ClampNormalize,
+            kmeans_sample: 1000,
+            kmeans: KMeansOptions {
+                max_iter: 50,
+                n_init: 1,
+            },
+            arap_max_iter: 30,
+            verify_top: 0,
+        }
+    }
+}
+
+/// Options of [`select_keypoints`] and [`fit_keypoints`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct KeypointOptions {
+    /// Number of FPS candidates n_c (paper: 100).
+    pub n_candidates: usize,
+    /// Seed of every random choice (FPS start, k-means, subsamples).
+    pub seed: u64,
+    /// Stage-1 threshold ε on the error (paper: 0.03, unit-sphere units).
+    pub epsilon: f64,
+    /// Upper bound on the number of key points.
+    pub max_keypoints: usize,
+    /// Exact or fast evaluation.
+    pub mode: SelectionMode,
+    /// Metric of the candidate FPS.
+    pub fps: FpsMetric,
+    /// Bounded biharmonic weight options (exact mode, and fast mode's
+    /// verification).
+    pub weights: BbwOptions,
+    /// Rotation-group features (paper: `W′`, Eq. 15).
+    pub groups: GroupFeatures,
+    /// Number of rotation groups; `None`: `|S|` (paper).
+    pub n_groups: Option<usize>,
+    /// Reduced ARAP options (paper: λ = 0.5 with E_diff).
+    pub arap: ArapOptions,
+    /// Maximum number of stage-2 passes.
+    pub max_swap_passes: usize,
+    /// Error summary (paper's by default).
+    pub error_norm: ErrorNorm,
+    /// Fast-mode settings.
+    pub fast: FastOptions,
+}
+
+impl Default for KeypointOptions {
+    fn default() -> Self {
+        KeypointOptions {
+            n_candidates: 100,
+            seed: 0,
+            epsilon: 0.03,
+            max_keypoints: 30,
+            mode: SelectionMode::Exact,
+            fps: FpsMetric::Geodesic,
+            weights: BbwOptions::default(),
+            groups: GroupFeatures::AUGMENTED,
+            n_groups: None,
+            arap: ArapOptions::default(),
+            max_swap_passes: 10,
+            error_norm: ErrorNorm::Paper,
+            fast: FastOptions::default(),
+        }
+    }
+}
+
+/// One step of the selection.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TraceStep {
+    /// 1: addition (stage 1, the first entry is `S = {c_1}`), 2: one
+    /// replacement attempt of stage 2 (the set is unchanged when no
+    /// candidate was strictly better).
+    pub stage: u8,
+    /// The key point set after the step.
+    pub keypoints: Vec<usize>,
+    /// Its error (as compared during the selection).
+    pub error: f64,
+}
+
+/// Result of [`select_keypoints`].
+#[derive(Clone, Debug)]
+pub struct KeypointSelection {
+    /// Selected key points (vertex ids on A).
+    pub keypoints: Vec<usize>,
+    /// The FPS candidates (vertex ids on A).
+    pub candidates: Vec<usize>,
+    /// `[deformed source][key point]` affine transforms, in A's original
+    /// coordinate frame.
+    pub transforms: Vec<Vec<Affine>>,
+    /// Error of the final fit (unit-sphere units, [`KeypointOptions::error_norm`]).
+    pub error: f64,
+    /// Error after every step.
+    pub trace: Vec<TraceStep>,
+    /// The unit-sphere similarity used.
+    pub normalization: Similarity,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+    /// Trial sets evaluated (one evaluation = all m sources).
+    pub evaluations: usize,
+    /// Trials whose solver failed numerically (counted as `+∞`).
+    pub failed_evaluations: usize,
+}
+
+/// Result of [`fit_keypoints`].
+#[derive(Clone, Debug)]
+pub struct KeypointFit {
+    /// `[deformed source][key point]` transforms in A's original frame.
+    pub transforms: Vec<Vec<Affine>>,
+    /// `[deformed source]` deformed A (`D_S(A)`), original frame.
+    pub positions: Vec<Vec<Point>>,
+    /// Error (unit-sphere units, [`KeypointOptions::error_norm`]).
+    pub error: f64,
+    /// n × |S| skinning weights.
+    pub weights: DMatrix<f64>,
+    /// Rotation group of every vertex.
+    pub groups: Vec<usize>,
+}
+
+/// Automatic key point selection (BDT Algorithm 1); see the module docs.
+///
+/// Errors if `deformed` is empty, a deformed mesh has another vertex count
+/// or other faces than `source`, `n_candidates` is 0 or exceeds the vertex
+/// count, `max_keypoints` is 0, `epsilon` is not finite and ≥ 0, or the
+/// options are otherwise invalid.
+pub fn select_keypoints(
+    source: &Mesh,
+    deformed: &[Mesh],
+    opts: &KeypointOptions,
+) -> Result<KeypointSelection> {
+    let start = Instant::now();
+    check_inputs(source, deformed, opts)?;
+    let n = source.n_vertices();
+    if opts.n_candidates == 0 || opts.n_candidates > n {
+        return Err(Error::invalid(format!(
+            "n_candidates = {} must be in 1..={n} (the vertex count)",
+            opts.n_candidates
+        )));
+    }
+    if !(opts.epsilon.is_finite() && opts.epsilon >= 0.0) {
+        return Err(Error::invalid(format!(
+            "epsilon must be finite and ≥ 0, got {}",
+            opts.epsilon
+        )));
+    }
+    let ctx = Context::new(source, deformed, opts)?;
+    let candidates = farthest_point_sampling(&ctx.rest, opts.n_candidates, opts.fps, opts.seed)?;
+    let fast = match opts.mode {
+        SelectionMode::Fast => Some(GreenBasis::new(&ctx.bih, &candidates)?),
+        SelectionMode::Exact => None,
+    };
+    let mut sel = Selector {
+        ctx: &ctx,
+        fast: fast.as_ref(),
+        evaluations: 0,
+        failed: 0,
+    };
+    let max_k = opts.max_keypoints.min(candidates.len());
+
+    // Stage 1.
+    let mut set = vec![candidates[0]];
+    let mut error = sel.best_of(&[set.clone()])?.1;
+    let mut trace = vec![TraceStep {
+        stage: 1,
+        keypoints: set.clone(),
+        error,
+    }];
+    while !(error < opts.epsilon) && set.len() < max_k {
+        let trials: Vec<Vec<usize>> = candidates
+            .iter()
+            .filter(|c| !set.contains(c))
+            .map(|&c| {
+                let mut s = set.clone();
+                s.push(c);
+                s
+            })
+            .collect();
+        let (best, e) = sel.best_of(&trials)?;
+        if !e.is_finite() {
+            return Err(Error::numerical(format!(
+                "key point selection: every trial set of size {} failed",
+                set.len() + 1
+            )));
+        }
+        set = trials[best].clone();
+        error = e;
+        trace.push(TraceStep {
+            stage: 1,
+            keypoints: set.clone(),
+            error,
+        });
+    }
+
+    // Stage 2.
+    for _ in 0..opts.max_swap_passes {
+        let mut changed = false;
+        for t in 0..set.len() {
+            let trials: Vec<Vec<usize>> = candidates
+                .iter()
+                .filter(|c| !set.contains(c))
+                .map(|&c| {
+                    let mut s = set.clone();
+                    s[t] = c;
+                    s
+                })
+                .collect();
+            if !trials.is_empty() {
+                let (best, e) = sel.best_of(&trials)?;
+                if e < error {
+                    set = trials[best].clone();
+                    error = e;
+                    changed = true;
+                }
+            }
+            trace.push(TraceStep {
+                stage: 2,
+                keypoints: set.clone(),
+                error,
+            });
+        }
+        if !changed {
+            break;
+        }
+    }
+
+    let fit = ctx.fit(&set, fast.as_ref())?;
+    let (evaluations, failed_evaluations) = (sel.evaluations + 1, sel.failed);
+    Ok(KeypointSelection {
+        keypoints: set,
+        candidates,
+        transforms: fit.transforms,
+        error: fit.error,
+        trace,
+        normalization: ctx.sim,
+        seconds: start.elapsed().as_secs_f64(),
+        evaluations,
+        failed_evaluations,
+    })
+}
+
+/// `D_S`: deforms A towards every A′ with the given key points as handles
+/// (weights per [`KeypointOptions::mode`], rotation groups, reduced ARAP with
+/// E_diff). For random/user key point baselines and ablations.
+///
+/// Errors as [`select_keypoints`] (except the candidate count), and if
+/// `keypoints` is empty, out of range or has duplicates.
+pub fn fit_keypoints(
+    source: &Mesh,
+    deformed: &[Mesh],
+    keypoints: &[usize],
+    opts: &KeypointOptions,
+) -> Result<KeypointFit> {
+    check_inputs(source, deformed, opts)?;
+    let n = source.n_vertices();
+    if keypoints.is_empty() {
+        return Err(Error::invalid("fit_keypoints needs at least one key point"));
+    }
+    for (k, &v) in keypoints.iter().enumerate() {
+        if v >= n {
+            return Err(Error::invalid(format!(
+                "key point {k} is vertex {v}, but the mesh has {n} vertices"
+            )));
+        }
+        if keypoints[..k].contains(&v) {
+            return Err(Error::invalid(format!(
+                "key point {k} (vertex {v}) is repeated"
+            )));
+        }
+    }
+    let ctx = Context::new(source, deformed, opts)?;
+    let fast = match opts.mode {
+        SelectionMode::Fast => Some(GreenBasis::new(&ctx.bih, keypoints)?),
+        SelectionMode::Exact => None,
+    };
+    ctx.fit(keypoints, fast.as_ref())
+}
+
+fn check_inputs(source: &Mesh, deformed: &[Mesh], opts: &KeypointOptions) -> Result<()> {
+    if deformed.is_empty() {
+        return Err(Error::invalid(
+            "key point selection needs at least one deformed source mesh",
+        ));
+    }
+    let n = source.n_vertices();
+    for (j, d) in deformed.iter().enumerate() {
+        if d.n_vertices() != n {
+            return Err(Error::invalid(format!(
+                "deformed source {j} has {} vertices, the source has {n}",
+                d.n_vertices()
+            )));
+        }
+        if d.faces() != source.faces() {
+            return Err(Error::invalid(format!(
+                "deformed source {j} does not share the source's faces"
+            )));
+        }
+    }
+    if opts.max_keypoints == 0 {
+        return Err(Error::invalid("max_keypoints must be at least 1"));
+    }
+    if opts.n_groups == Some(0) {
+        return Err(Error::invalid("n_groups must be at least 1"));
+    }
+    if !(opts.arap.lambda.is_finite() && opts.arap.lambda >= 0.0) {
+        return Err(Error::invalid(format!(
+            "ARAP weight lambda must be finite and ≥ 0, got {}",
+            opts.arap.lambda
+        )));
+    }
+    Ok(())
+}
+
+/// Everything shared by all trials: normalised meshes, biharmonic
+/// precomputation, deformation features, k-means subsample.
+struct Context<'a> {
+    opts: &'a KeypointOptions,
+    sim: Similarity,
+    rest: Mesh,
+    targets: Vec<Vec<Point>>,
+    bih: Biharmonic,
+    /// `[γ logr~, γ s~]` (n × 12m) or empty for [`GroupFeatures::Weights`].
+    features: DMatrix<f64>,
+    /// Whether `W` is part of the k-means features.
+    use_w: bool,
+    /// Fast-mode k-means subsample (sorted vertex ids).
+    sample: Vec<usize>,
+}
+
+/// One evaluated trial set.
+struct Eval {
+    error: f64,
+    weights: DMatrix<f64>,
+    groups: Vec<usize>,
+    stacked: Vec<DMatrix<f64>>,
+    positions: Vec<Vec<Point>>,
+}
+
+impl<'a> Context<'a> {
+    fn new(source: &Mesh, deformed: &[Mesh], opts: &'a KeypointOptions) -> Result<Self> {
+        let mut all = Vec::with_capacity(deformed.len() + 1);
+        all.push(source.clone());
+        all.extend_from_slice(deformed);
+        let (sim, mut normed) = normalize_to_unit_sphere(&all, NormalizeReference::Union)?;
+        let rest = normed.remove(0);
+        let n = rest.n_vertices();
+        let empty = DMatrix::zeros(n, 0);
+        let features = group_features(&rest, &normed, &empty, opts.groups)?;
+        let use_w = !matches!(opts.groups, GroupFeatures::RotationScale { .. });
+        let bih = Biharmonic::new(&rest)?;
+        let sample = match opts.mode {
+            SelectionMode::Fast if opts.fast.kmeans_sample > 0 && opts.fast.kmeans_sample < n => {
+                seeded_subsample(n, opts.fast.kmeans_sample, opts.seed)
+            }
+            _ => Vec::new(),
+        };
+        Ok(Context {
+            opts,
+            sim,
+            rest,
+            targets: normed.into_iter().map(|m| m.vertices().to_vec()).collect(),
+            bih,
+            features,
+            use_w,
+            sample,
+        })
+    }
+
+    fn n(&self) -> usize {
+        self.rest.n_vertices()
+    }
+
+    /// Skinning weights of a trial set.
+    fn weights(&self, set: &[usize], fast: Option<&GreenBasis>) -> Result<DMatrix<f64>> {
+        match fast {
+            Some(g) => g.weights(set, self.opts.fast.bounds),
+            None => self.bih.weights(set, &self.opts.weights),
+        }
+    }
+
+    /// Rotation groups for weights `w`.
+    fn groups(&self, w: &DMatrix<f64>, fast: bool) -> Result<Vec<usize>> {
+        let n = self.n();
+        let k = self.opts.n_groups.unwrap_or(w.ncols()).min(n);
+        let wc = if self.use_w { w.ncols() } else { 0 };
+        let d = wc + self.features.ncols();
+        let row = |i: usize, c: usize| {
+            if c < wc {
+                w[(i, c)]
+            } else {
+                self.features[(i, c - wc)]
+            }
+        };
+        if d == 0 {
+            return Err(Error::invalid("rotation groups have no features"));
+        }
+        if fast && !self.sample.is_empty() && k <= self.sample.len() {
+            let x = DMatrix::from_fn(self.sample.len(), d, |r, c| row(self.sample[r], c));
+            let km = kmeans_with(&x, k, self.opts.seed, &self.opts.fast.kmeans)?;
+            let centers = &km.centers;
+            Ok((0..n)
+                .map(|i| {
+                    let mut best = (0, f64::INFINITY);
+                    for g in 0..centers.nrows() {
+                        let mut s = 0.0;
+                        for c in 0..d {
+                            let t = row(i, c) - centers[(g, c)];
+                            s += t * t;
+                        }
+                        if s < best.1 {
+                            best = (g, s);
+                        }
+                    }
+                    best.0
+                })
+                .collect())
+        } else {
+            let x = DMatrix::from_fn(n, d, row);
+            Ok(kmeans_with(&x, k, self.opts.seed, &GROUP_KMEANS)?.labels)
+        }
+    }
+
+    /// `D_S(A)` towards every target and its error. `fast` selects the fast
+    /// weights/groups/ARAP settings; `keep` keeps transforms and positions.
+    fn evaluate(&self, set: &[usize], fast: Option<&GreenBasis>, keep: bool) -> Result<Eval> {
+        let w = self.weights(set, fast)?;
+        let groups = self.groups(&w, fast.is_some())?;
+        let mut arap_opts = self.opts.arap.clone();
+        arap_opts.use_ediff = true;
+        if fast.is_some() {
+            arap_opts.max_iter = arap_opts.max_iter.min(self.opts.fast.arap_max_iter.max(1));
+        }
+        let arap = ReducedArap::new(&self.rest, &w, &groups, arap_opts)?;
+        let n = self.n() as f64;
+        let m = self.targets.len() as f64;
+        let mut sum = 0.0;
+        let mut stacked = Vec::new();
+        let mut positions = Vec::new();
+        for target in &self.targets {
+            let sol = arap.solve(target, None)?;
+            let sq: f64 = sol
+                .positions
+                .iter()
+                .zip(target)
+                .map(|(p, q)| (p - q).norm_squared())
+                .sum();
+            sum += sq.sqrt();
+            if keep {
+                stacked.push(sol.stacked);
+                positions.push(sol.positions);
+            }
+        }
+        let error = match self.opts.error_norm {
+            ErrorNorm::Paper => sum / (m * n),
+            ErrorNorm::Rms => sum / (m * n.sqrt()),
+        };
+        if !error.is_finite() {
+            return Err(Error::numerical(format!(
+                "key point error is {error} for {set:?}"
+            )));
+        }
+        Ok(Eval {
+            error,
+            weights: w,
+            groups,
+            stacked,
+            positions,
+        })
+    }
+
+    /// The final fit of a set, converted back to the original frame.
+    fn fit(&self, set: &[usize], fast: Option<&GreenBasis>) -> Result<KeypointFit> {
+        let e = self.evaluate(set, fast, true)?;
+        let transforms = e
+            .stacked
+            .iter()
+            .map(|t| {
+                crate::skin::transforms_from_stacked(t)
+                    .map(|ts| ts.iter().map(|a| to_original_frame(a, &self.sim)).collect())
+            })
+            .collect::<Result<Vec<Vec<Affine>>>>()?;
+        let positions = e
+            .positions
+            .iter()
+            .map(|ps| ps.iter().map(|p| self.sim.invert(p)).collect())
+            .collect();
+        Ok(KeypointFit {
+            transforms,
+            positions,
+            error: e.error,
+            weights: e.weights,
+            groups: e.groups,
+        })
+    }
+}
+
+/// `T_orig = S⁻¹ ∘ T ∘ S` for `S(x) = (x − c) s`: `A` unchanged,
+/// `t_orig = c − A c + t / s`. Valid for LBS because the weights sum to one.
+pub fn to_original_frame(t: &Affine, sim: &Similarity) -> Affine {
+    let a = t.fixed_view::<3, 3>(0, 0).into_owned();
+    let tr = t.column(3).into_owned();
+    let c = sim.center.coords;
+    let t_orig = c - a * c + tr / sim.scale;
+    let mut out = *t;
+    out.set_column(3, &t_orig);
+    out
+}
+
+/// `k` distinct indices of `0..n`, seeded (partial Fisher–Yates), sorted.
+fn seeded_subsample(n: usize, k: usize, seed: u64) -> Vec<usize> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6b65_7970_6f69_6e74);
+    let mut idx: Vec<usize> = (0..n).collect();
+    for i in 0..k.min(n) {
+        let j = rng.random_range(i..n);
+        idx.swap(i, j);
+    }
+    idx.truncate(k.min(n));
+    idx.sort_unstable();
+    idx
+}
+
+/// Evaluates trial sets in parallel and reduces deterministically.
+struct Selector<'c, 'a> {
+    ctx: &'c Context<'a>,
+    fast: Option<&'c GreenBasis>,
+    evaluations: usize,
+    failed: usize,
+}
+
+impl Selector<'_, '_> {
+    /// Errors of the trials (in order; numerical failures → +∞).
+    fn errors(&mut self, trials: &[Vec<usize>], fast: Option<&GreenBasis>) -> Result<Vec<f64>> {
+        let ctx = self.ctx;
+        let results: Vec<Result<f64>> = trials
+            .par_iter()
+            .map(|s| ctx.evaluate(s, fast, false).map(|e| e.error))
+            .collect();
+        self.evaluations += trials.len();
+        let mut out = Vec::with_capacity(results.len());
+        for r in results {
+            match r {
+                Ok(e) => out.push(e),
+                Err(Error::Numerical(_)) => {
+                    self.failed += 1;
+                    out.push(f64::INFINITY);
+                }
+                Err(e) => return Err(e),
+            }
+        }
+        Ok(out)
+    }
+
+    /// Index and error of the best trial (lowest index on ties).
+    fn best_of(&mut self, trials: &[Vec<usize>]) -> Result<(usize, f64)> {
+        let errs = self.errors(trials, self.fast)?;
+        let verify = self.ctx.opts.fast.verify_top;
+        if self.fast.is_some() && verify > 0 {
+            let mut order: Vec<usize> = (0..trials.len()).collect();
+            order.sort_by(|&a, &b| errs[a].total_cmp(&errs[b]).then(a.cmp(&b)));
+            order.truncate(verify);
+            order.sort_unstable();
+            let subset: Vec<Vec<usize>> = order.iter().map(|&i| trials[i].clone()).collect();
+            let exact = self.errors(&subset, None)?;
+            let k = argmin(&exact);
+            return Ok((order[k], exact[k]));
+        }
+        let k = argmin(&errs);
+        Ok((k, errs[k]))
+    }
+}
+
+/// Index of the smallest value, lowest index on ties (NaN never wins).
+fn argmin(v: &[f64]) -> usize {
+    let mut best = 0;
+    for (i, &x) in v.iter().enumerate() {
+        if x < v[best] || (v[best].is_nan() && !x.is_nan()) {
+            best = i;
+        }
+    }
+    best
+}
+
+/// Biharmonic Green's functions of a fixed vertex set (fast mode).
+#[derive(Clone, Debug)]
+pub struct GreenBasis {
+    /// Column of each vertex in `g` (`usize::MAX`: not in the basis).
+    col: Vec<usize>,
+    /// n × |basis|: `Q g_c = e_c − a` with `g_c(ground) = 0`.
+    g: DMatrix<f64>,
+}
+
+impl GreenBasis {
+    /// One factorisation of `Q` with vertex 0 grounded, `vertices.len()`
+    /// solves. Errors if the mesh is not connected (the grounded system is
+    /// then singular) or a vertex is out of range.
+    pub fn new(bih: &Biharmonic, vertices: &[usize]) -> Result<Self> {
+        let n = bih.n_vertices();
+        let mut col = vec![usize::MAX; n];
+        for (k, &v) in vertices.iter().enumerate() {
+            if v >= n {
+                return Err(Error::invalid(format!(
+                    "basis vertex {v} out of range ({n} vertices)"
+                )));
+            }
+            col[v] = k;
+        }
+        if n < 2 {
+            return Err(Error::invalid("Green's functions need at least 2 vertices"));
+        }
+        let q = bih.quadratic_form();
+        let ground = 0;
+        let trip = q
+            .triplet_iter()
+            .filter(|&(i, j, _)| i != ground && j != ground)
+            .map(|(i, j, &v)| (i - 1, j - 1, v));
+        let qr = sparse_from_triplets(n - 1, n - 1, trip);
+        let fac = SparseCholesky::new(&qr).map_err(|e| {
+            Error::numerical(format!(
+                "fast key point mode: the grounded biharmonic system is singular (is the mesh \
+                 connected?): {e}"
+            ))
+        })?;
+        let mass = bih.mass();
+        let total: f64 = mass.iter().sum();
+        let mut rhs = DMatrix::zeros(n - 1, vertices.len());
+        for (k, &v) in vertices.iter().enumerate() {
+            for i in 1..n {
+                rhs[(i - 1, k)] = -mass[i] / total;
+            }
+            if v != ground {
+                rhs[(v - 1, k)] += 1.0;
+            }
+        }
+        let sol = fac.try_solve(&rhs)?;
+        let mut g = DMatrix::zeros(n, vertices.len());
+        g.rows_mut(1, n - 1).copy_from(&sol);
+        Ok(GreenBasis { col, g })
+    }
+
+    /// Unbounded biharmonic weights of `set` (all in the basis), then
+    /// `bounds`.
+    pub fn weights(&self, set: &[usize], bounds: FastBounds) -> Result<DMatrix<f64>> {
+        let k = set.len();
+        let n = self.g.nrows();
+        let mut cols = Vec::with_capacity(k);
+        for &s in set {
+            match self.col.get(s) {
+                Some(&c) if c != usize::MAX => cols.push(c),
+                _ => {
+                    return Err(Error::invalid(format!(
+                        "vertex {s} is not in the Green's function basis"
+                    )))
+                }
+            }
+        }
+        let gs = self.g.select_columns(&cols);
+        let mut a = DMatrix::zeros(k + 1, k + 1);
+        for i in 0..k {
+            for j in 0..k {
+                a[(i, j)] = gs[(set[i], j)];
+            }
+            a[(i, k)] = 1.0;
+            a[(k, i)] = 1.0;
+        }
+        let mut b = DMatrix::zeros(k + 1, k);
+        for i in 0..k {
+            b[(i, i)] = 1.0;
+        }
+        let x = a.lu().solve(&b).ok_or_else(|| {
+            Error::numerical(format!(
+                "fast weights: singular Green's function system for {set:?}"
+            ))
+        })?;
+        let mu = x.rows(0, k);
+        let mut w = &gs * mu;
+        for j in 0..k {
+            let c = x[(k, j)];
+            for i in 0..n {
+                w[(i, j)] += c;
+            }
+        }
+        for (j, &s) in set.iter().enumerate() {
+            for c in 0..k {
+                w[(s, c)] = if c == j { 1.0 } else { 0.0 };
+            }
+        }
+        if bounds == FastBounds::ClampNormalize {
+            for i in 0..n {
+                let mut sum = 0.0;
+                for j in 0..k {
+                    let v = w[(i, j)].clamp(0.0, 1.0);
+                    w[(i, j)] = v;
+                    sum += v;
+                }
+                if sum > 0.0 {
+                    for j in 0..k {
+                        w[(i, j)] /= sum;
+                    }
+                } else {
+                    for j in 0..k {
+                        w[(i, j)] = 1.0 / k as f64;
+                    }
+                }
+            }
+        }
+        if w.iter().any(|x| !x.is_finite()) {
+            return Err(Error::numerical("fast weights are not finite"));
+        }
+        Ok(w)
+    }
+}

@@ -1,0 +1,217 @@
+//! Key point selection (BDT Algorithm 1): trace properties, thread
+//! independence, fast vs exact, bad input.
+
+use deformlab::data::synthetic::FaustStyle;
+use deformlab::ops::FpsMetric;
+use deformlab::skin::bbw::{BbwOptions, Biharmonic, WeightMode};
+use deformlab::transfer::keypoints::{
+    fit_keypoints, select_keypoints, FastBounds, GreenBasis, KeypointOptions, SelectionMode,
+};
+use deformlab::{Mesh, Point};
+
+/// Subject 0 in its first pose (A) and two more poses (A′).
+fn data() -> (Mesh, Vec<Mesh>) {
+    let set = FaustStyle {
+        subjects: 2,
+        poses: 3,
+        resolution: 1,
+        ..Default::default()
+    }
+    .generate()
+    .unwrap();
+    let a = set.meshes[0][0].clone();
+    let d = set.meshes[0][1..].to_vec();
+    (a, d)
+}
+
+fn small_opts(mode: SelectionMode) -> KeypointOptions {
+    KeypointOptions {
+        n_candidates: 20,
+        epsilon: 0.0,
+        max_keypoints: 4,
+        mode,
+        max_swap_passes: 3,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn green_functions_equal_unbounded_weights() {
+    let (a, _) = data();
+    let bih = Biharmonic::new(&a).unwrap();
+    let set = [5usize, 400, 900, 1300];
+    let basis = GreenBasis::new(&bih, &[1300, 5, 77, 900, 400]).unwrap();
+    let w = basis.weights(&set, FastBounds::Unbounded).unwrap();
+    let r = bih
+        .weights(&set, &BbwOptions::with_mode(WeightMode::Unbounded))
+        .unwrap();
+    let diff = (&w - &r).amax();
+    assert!(diff < 1e-6, "max |W_green − W_unbounded| = {diff}");
+    let c = basis.weights(&set, FastBounds::ClampNormalize).unwrap();
+    for i in 0..c.nrows() {
+        let s: f64 = c.row(i).sum();
+        assert!((s - 1.0).abs() < 1e-12);
+        assert!(c.row(i).iter().all(|&x| (0.0..=1.0).contains(&x)));
+    }
+}
+
+#[test]
+fn exact_selection_trace_and_frame() {
+    let (a, d) = data();
+    let opts = small_opts(SelectionMode::Exact);
+    let sel = select_keypoints(&a, &d, &opts).unwrap();
+    eprintln!(
+        "exact: {:?} error {:.4e} evals {} in {:.1} s",
+        sel.keypoints, sel.error, sel.evaluations, sel.seconds
+    );
+    assert_eq!(sel.keypoints.len(), 4);
+    assert_eq!(sel.candidates.len(), 20);
+    assert!(sel.keypoints.iter().all(|k| sel.candidates.contains(k)));
+    // Stage 1 adds one key point per step; with ε = 0 it stops at the cap.
+    let s1: Vec<_> = sel.trace.iter().filter(|s| s.stage == 1).collect();
+    assert_eq!(s1.len(), 4);
+    for (i, s) in s1.iter().enumerate() {
+        assert_eq!(s.keypoints.len(), i + 1);
+    }
+    // The best set with one more key point is at least as good as the one
+    // with a single key point (true here because the error drops a lot;
+    // the greedy stage-1 trace is not monotone in general).
+    assert!(s1.last().unwrap().error < s1[0].error);
+    // Stage 2 never increases the error and starts from stage 1's end.
+    let mut prev = s1.last().unwrap().error;
+    for s in sel.trace.iter().filter(|s| s.stage == 2) {
+        assert!(s.error <= prev, "stage 2 increased {prev} → {}", s.error);
+        prev = s.error;
+    }
+    // The final error is the last traced one (same evaluation).
+    assert!((sel.error - prev).abs() <= 1e-9 * prev.max(1e-30));
+    // Transforms in the original frame reproduce the fit.
+    let fit = fit_keypoints(&a, &d, &sel.keypoints, &opts).unwrap();
+    assert_eq!(fit.transforms.len(), d.len());
+    assert!((fit.error - sel.error).abs() <= 1e-9 * sel.error);
+    for j in 0..d.len() {
+        let q = deformlab::skin::lbs(a.vertices(), &fit.weights, &fit.transforms[j]).unwrap();
+        let mut max = 0.0f64;
+        for (p, r) in q.iter().zip(&fit.positions[j]) {
+            max = max.max((p - r).norm());
+        }
+        assert!(max < 1e-8, "original-frame LBS differs by {max}");
+        assert_eq!(sel.transforms[j].len(), sel.keypoints.len());
+    }
+}
+
+#[test]
+fn same_keypoints_with_one_and_two_threads() {
+    let (a, d) = data();
+    let opts = small_opts(SelectionMode::Fast);
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| select_keypoints(&a, &d, &opts).unwrap())
+    };
+    let one = run(1);
+    let two = run(2);
+    assert_eq!(one.keypoints, two.keypoints);
+    assert_eq!(one.error, two.error);
+    assert_eq!(one.trace, two.trace);
+}
+
+#[test]
+fn fast_agrees_with_exact() {
+    let (a, d) = data();
+    let exact_opts = small_opts(SelectionMode::Exact);
+    let exact = select_keypoints(&a, &d, &exact_opts).unwrap();
+    let fast = select_keypoints(&a, &d, &small_opts(SelectionMode::Fast)).unwrap();
+    // Judge the fast set by the exact D_S.
+    let fast_exact = fit_keypoints(&a, &d, &fast.keypoints, &exact_opts).unwrap();
+    let gap = (fast_exact.error - exact.error) / exact.error;
+    eprintln!(
+        "exact {:?} Ê = {:.5e} ({:.1} s); fast {:?} Ê_fast = {:.5e}, Ê_exact = {:.5e} ({:.1} s); gap {:+.2} %",
+        exact.keypoints,
+        exact.error,
+        exact.seconds,
+        fast.keypoints,
+        fast.error,
+        fast_exact.error,
+        fast.seconds,
+        100.0 * gap
+    );
+    let same = {
+        let (mut x, mut y) = (exact.keypoints.clone(), fast.keypoints.clone());
+        x.sort_unstable();
+        y.sort_unstable();
+        x == y
+    };
+    assert!(same || gap <= 0.10, "fast set is {:.1} % worse", 100.0 * gap);
+}
+
+#[test]
+fn m_equals_one_and_paper_threshold() {
+    let (a, d) = data();
+    // Paper defaults except the candidate count: Ê uses 1/(m n) with the
+    // Frobenius norm, so ε = 0.03 is met at once on ~1.7k vertices.
+    let opts = KeypointOptions {
+        n_candidates: 10,
+        mode: SelectionMode::Fast,
+        ..Default::default()
+    };
+    let sel = select_keypoints(&a, &d[..1], &opts).unwrap();
+    assert!(sel.error < 0.03);
+    assert_eq!(sel.transforms.len(), 1);
+    assert!(!sel.keypoints.is_empty());
+}
+
+#[test]
+fn bad_input_is_an_error() {
+    let (a, d) = data();
+    let opts = small_opts(SelectionMode::Fast);
+    // Empty deformed list.
+    assert!(select_keypoints(&a, &[], &opts).is_err());
+    assert!(fit_keypoints(&a, &[], &[0], &opts).is_err());
+    // Mismatched vertex count.
+    let other = deformlab::mesh::primitives::icosphere(1);
+    assert!(select_keypoints(&a, &[other.clone()], &opts).is_err());
+    assert!(select_keypoints(&a, &[d[0].clone(), other], &opts).is_err());
+    // Too many candidates / none.
+    let too_many = KeypointOptions {
+        n_candidates: a.n_vertices() + 1,
+        ..opts.clone()
+    };
+    assert!(select_keypoints(&a, &d, &too_many).is_err());
+    let none = KeypointOptions {
+        n_candidates: 0,
+        ..opts.clone()
+    };
+    assert!(select_keypoints(&a, &d, &none).is_err());
+    // NaN options (meshes cannot hold NaN: Mesh::new rejects it).
+    let nan_eps = KeypointOptions {
+        epsilon: f64::NAN,
+        ..opts.clone()
+    };
+    assert!(select_keypoints(&a, &d, &nan_eps).is_err());
+    let mut nan_lambda = opts.clone();
+    nan_lambda.arap.lambda = f64::NAN;
+    assert!(select_keypoints(&a, &d, &nan_lambda).is_err());
+    let mut bad = a.vertices().to_vec();
+    bad[3] = Point::new(f64::NAN, 0.0, 0.0);
+    assert!(a.with_vertices(bad).is_err());
+    // Bad key point lists.
+    assert!(fit_keypoints(&a, &d, &[], &opts).is_err());
+    assert!(fit_keypoints(&a, &d, &[1, 1], &opts).is_err());
+    assert!(fit_keypoints(&a, &d, &[a.n_vertices()], &opts).is_err());
+    let zero_k = KeypointOptions {
+        max_keypoints: 0,
+        ..opts.clone()
+    };
+    assert!(select_keypoints(&a, &d, &zero_k).is_err());
+    let fps_euclid = KeypointOptions {
+        fps: FpsMetric::Euclidean,
+        n_candidates: 5,
+        max_keypoints: 2,
+        max_swap_passes: 0,
+        ..opts
+    };
+    assert!(select_keypoints(&a, &d, &fps_euclid).is_ok());
+}
