@@ -2,6 +2,8 @@
 
 mod gen;
 mod inspect;
+mod keypoints;
+mod transfer;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -66,6 +68,12 @@ pub enum Command {
         #[arg(long)]
         brief: bool,
     },
+    /// Select key points on a source mesh from its deformed poses (BDT
+    /// Algorithm 1); print them with the error trace and the time.
+    Keypoints(keypoints::KeypointsArgs),
+    /// Select (or reuse) key points on the source, fit their transforms and
+    /// transfer every deformed pose to a target mesh (BDT Sec. 3.6).
+    Transfer(Box<transfer::TransferArgs>),
 }
 
 /// Runs a parsed command line.
@@ -89,5 +97,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             force,
         }),
         Command::Inspect { paths, brief } => inspect::run(&paths, brief),
+        Command::Keypoints(a) => keypoints::run(a),
+        Command::Transfer(a) => transfer::run(*a),
     }
 }

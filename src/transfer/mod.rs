@@ -9,6 +9,6 @@ pub use keypoints::{
     KeypointOptions, KeypointSelection, SelectionMode, TraceStep,
 };
 pub use target::{
-    handle_relative, mean_vertex_error, transfer, transfer_detailed, TransferFrame,
+    handle_relative, mean_vertex_error, transfer, transfer_detailed, TargetWeights, TransferFrame,
     TransferOptions, TransferResult,
 };

@@ -10,7 +10,11 @@
 //!
 //! 1. **Weights.** Bounded biharmonic weights `W_B` (n_B × n_k) on `B` with
 //!    the target key points as point handles (column `k` ↔ `b_k`), computed
-//!    once for all `j` ([`TransferOptions::weights`]).
+//!    once for all `j` ([`TransferOptions::weights`]). Alternatively
+//!    ([`TargetWeights::Fast`]) the clamped, renormalised unbounded
+//!    biharmonic weights that key point selection's fast mode fits with
+//!    ([`crate::transfer::keypoints::GreenBasis`]), so that `B` is skinned
+//!    the way `A` was when the transforms were fitted.
 //! 2. **Transforms on B** ([`TransferFrame`]):
 //!    * [`TransferFrame::Direct`] — `T_k` applied as is, as in the paper
 //!      ("we directly apply the transformation matrix T of each key point
@@ -53,6 +57,7 @@ use crate::arap::{ArapOptions, ReducedArap};
 use crate::mesh::Mesh;
 use crate::skin::bbw::{BbwOptions, Biharmonic};
 use crate::skin::{rotation_groups, transforms_to_stacked, Affine, GroupFeatures, LbsMatrix};
+use crate::transfer::keypoints::{FastBounds, GreenBasis};
 use crate::{Error, Point, Result};
 
 /// How the source transforms are placed on the target (see the module
@@ -76,6 +81,17 @@ impl TransferFrame {
     }
 }
 
+/// Which skinning weights are computed on the target.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum TargetWeights {
+    /// Bounded biharmonic weights with [`TransferOptions::weights`] (BDT Eq. 1).
+    #[default]
+    Bounded,
+    /// Unbounded biharmonic weights made admissible by `bounds` (the weights
+    /// of [`crate::transfer::SelectionMode::Fast`]).
+    Fast(FastBounds),
+}
+
 /// Options of [`transfer`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct TransferOptions {
@@ -84,6 +100,8 @@ pub struct TransferOptions {
     /// Bounded biharmonic weights on `B` (use the same options as the key
     /// point fitting on `A` so that `A → A` reproduces the fit exactly).
     pub weights: BbwOptions,
+    /// Bounded (default) or fast-mode weights on `B`.
+    pub weight_kind: TargetWeights,
     /// Run the ARAP refinement on `B` after LBS.
     pub refine: bool,
     /// Refinement solver options. `use_ediff: false` (default): handle
@@ -105,6 +123,7 @@ impl Default for TransferOptions {
         TransferOptions {
             frame: TransferFrame::Direct,
             weights: BbwOptions::default(),
+            weight_kind: TargetWeights::Bounded,
             refine: false,
             arap: ArapOptions {
                 use_ediff: false,
@@ -180,7 +199,13 @@ pub fn transfer_detailed(
     )?;
 
     let t = Instant::now();
-    let weights = Biharmonic::new(target)?.weights(target_keypoints, &opts.weights)?;
+    let bih = Biharmonic::new(target)?;
+    let weights = match opts.weight_kind {
+        TargetWeights::Bounded => bih.weights(target_keypoints, &opts.weights)?,
+        TargetWeights::Fast(bounds) => {
+            GreenBasis::new(&bih, target_keypoints)?.weights(target_keypoints, bounds)?
+        }
+    };
     if weights.iter().any(|w| !w.is_finite()) {
         return Err(Error::numerical("target skinning weights are not finite"));
     }
