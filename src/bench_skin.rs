@@ -61,13 +61,13 @@ fn bench_mesh(out: &mut String) -> Result<Mesh> {
     }
 }
 
-/// Runs the benchmark and returns the report (Markdown table). `quick` uses
-/// 3 repetitions and 4 handles instead of 5 repetitions and 10 handles.
+/// Runs the benchmark and returns the report (Markdown table), medians of 3
+/// runs. `quick` uses 4 handles instead of 10.
 pub fn run(quick: bool) -> Result<String> {
     let mut out = String::new();
     let mesh = bench_mesh(&mut out)?;
     let n = mesh.n_vertices();
-    let reps = if quick { 3 } else { 5 };
+    let reps = 3;
     let nh = if quick { 4 } else { 10 };
     let handles = farthest_point_sampling(&mesh, nh, FpsMetric::Euclidean, 0)?;
     let _ = writeln!(

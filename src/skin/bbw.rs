@@ -16,22 +16,52 @@
 //! * [`WeightMode::PerHandle`] — each `w_k` separately with `0 ≤ w_k ≤ 1`
 //!   (no partition of unity), then rows normalised to sum to one (the common
 //!   practice, and what libigl's `bbw` + `normalize_row_sums` does). Solved by
-//!   the primal–dual active-set method of [`crate::solve::qp::BoxQp`]: warm
-//!   start from the unbounded solution, active variables eliminated by an
-//!   identity block that keeps `Q_ff`'s sparsity pattern, so AMD and the
-//!   symbolic factorisation are done once per handle *set* and every
-//!   iteration of every handle is one numeric factorisation and one solve.
+//!   the primal–dual active-set method of [`crate::solve::qp::BoxQp`]: the
+//!   initial active sets come from 100 ADMM iterations on all handles at once
+//!   (box constraints, one factorisation of `Q_ff + ρ diag Q_ff`, started at
+//!   the unbounded solution); each iteration then solves the free block —
+//!   a fresh factorisation of just that block when under 60 % of the
+//!   vertices are free, otherwise a numeric refactorisation of the full
+//!   pattern (active rows replaced by identity, explicit zeros kept) that
+//!   reuses one symbolic factorisation per handle set.
 //! * [`WeightMode::Coupled`] — the coupled problem of Eq. 1, all weights
-//!   together, by ADMM ([`crate::solve::qp::RowAdmm`]): the `W`-step
-//!   reuses one factorisation of `Q_ff + ρM_f` for all handles and
-//!   iterations (ρ re-balanced a few times, numeric refactorisation only),
-//!   the `Z`-step projects each vertex's row onto the probability simplex.
-//!   The returned weights are the projected iterate, so interpolation, bounds
-//!   and partition of unity hold *exactly*; optimality is approximate, to the
-//!   residual tolerance of [`BbwOptions::admm`] (`max|W − Z|` and
-//!   `max|Z − Z_prev|` both ≤ `tol`, weights being in [0, 1]).
+//!   together, solved exactly by [`crate::solve::qp::simplex_rows_qp`]: a
+//!   primal–dual active-set method on the row supports `S_i = {k : w_ik > 0}`;
+//!   for fixed supports the partition of unity is eliminated row by row
+//!   (one support entry = 1 − the others), leaving one sparse SPD system of
+//!   `Σ_i (|S_i| − 1)` unknowns per iteration. Warm-started from the
+//!   PerHandle weights (a feasible point whose support is nearly right).
+//!   Interpolation, bounds and partition of unity hold exactly; optimality
+//!   to the KKT tolerance [`BbwOptions::tol`].
 //!
-//! Figures and choices are documented on [`Biharmonic::weights`].
+//! **What was tried and measured** (FAUST `tr_reg_001`, 6890 vertices,
+//! 10 FPS handles, release, 2-core machine shared with three other
+//! compiling engineers, so ±50 % noise; full table in the `bench_skin`
+//! report):
+//!
+//! * Unbounded: 0.055 s for all 10 handles (one factorisation of `Q_ff`).
+//! * PerHandle, active set reusing the symbolic factorisation, warm start
+//!   from the unbounded solution: 31 iterations per handle, 1.3 s per
+//!   handle. Warm start from 100 ADMM iterations (box constraints, all
+//!   handles at once, one factorisation of `Q_ff + ρ diag Q_ff`): 24
+//!   iterations per handle, 0.9 s per handle (1.4 s in a later run with the
+//!   free-block factorisation, under heavier load — not A/B-tested cleanly).
+//!   libigl's active set: 0.21 s per handle — **we are 4–6× slower**; the iteration count (the active set
+//!   grows by "ringing" fronts of the biharmonic function) is the cost.
+//!   Multiplier test: per row, `|g_i| > tol·Q_ii`; a global scale
+//!   (`tol·max|b|`) stopped early with wrong active sets on FAUST because
+//!   `Q_ii` varies over orders of magnitude with the triangle sizes.
+//! * Coupled by ADMM (simplex projection, `D = M` or `D = diag Q_ff`,
+//!   residual balancing): residuals fall below 1e-6 while the energy is
+//!   still 20–40 % above that of the normalised PerHandle weights (a feasible
+//!   point!) — `Q = L M⁻¹ L` is too ill-conditioned for a first-order method
+//!   (a certified duality gap stayed at ~40 % after 4000 iterations). Not
+//!   used for Coupled; ADMM only warm-starts PerHandle.
+//! * Coupled by the support active set: from the unbounded solution
+//!   projected onto the simplex 58 iterations (4 handles); from PerHandle
+//!   11 (4 handles) / 50 (10 handles, 28k unknowns), 8.5–9.1 s per handle
+//!   in all — exact, but slow: the Table 1 budget of BDT (1.3–4.2 s per
+//!   handle) is not met for 10 handles.
 
 use nalgebra::DMatrix;
 
@@ -283,9 +313,8 @@ impl Biharmonic {
     /// range, at least one per connected component); column `k` belongs to
     /// `handles[k]`.
     ///
-    /// Choices and figures (FAUST `tr_reg_001`, 6890 vertices, 10 FPS
-    /// handles, release build, this 2-core machine shared with other jobs;
-    /// see `bench_skin`): filled in by the benchmark below.
+    /// Algorithms, tolerances and measured figures: see the module
+    /// documentation.
     pub fn weights(&self, handles: &[usize], opts: &BbwOptions) -> Result<DMatrix<f64>> {
         Ok(self.weights_with_report(handles, opts)?.weights)
     }

@@ -20,6 +20,11 @@ use nalgebra::DMatrix;
 use super::{SparseCholesky, SparseMatrix, SymbolicCholesky};
 use crate::{Error, Result};
 
+/// [`BoxQp`] factorises only the free block (fresh AMD ordering) when fewer
+/// than this fraction of the variables are free, and otherwise the
+/// full-size matrix with the reused symbolic factorisation.
+pub const SUBSYSTEM_FRACTION: f64 = 0.6;
+
 /// State of one variable in the active-set method.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Bound {
@@ -187,8 +192,40 @@ impl BoxQp {
                     rhs[i] = self.diag[i] * value(state[i]);
                 }
             }
-            let fac = self.symbolic.factorize(&reduced)?;
-            fac.solve_in_place(&mut rhs, 1)?;
+            let n_free = state.iter().filter(|&&s| s == Bound::Free).count();
+            if n_free == 0 {
+                // Nothing to solve: every variable sits at a bound.
+            } else if (n_free as f64) < SUBSYSTEM_FRACTION * n as f64 {
+                // Few free variables: a fresh ordering of the free block is
+                // much cheaper than the full-size factorisation.
+                let mut index = vec![usize::MAX; n];
+                let mut free = Vec::with_capacity(n_free);
+                for i in 0..n {
+                    if state[i] == Bound::Free {
+                        index[i] = free.len();
+                        free.push(i);
+                    }
+                }
+                let (offsets, rows, vals) =
+                    (self.a.col_offsets(), self.a.row_indices(), self.a.values());
+                let mut trip = Vec::new();
+                for &j in &free {
+                    for p in offsets[j]..offsets[j + 1] {
+                        if index[rows[p]] != usize::MAX {
+                            trip.push((index[rows[p]], index[j], vals[p]));
+                        }
+                    }
+                }
+                let sub = super::sparse_from_triplets(n_free, n_free, trip);
+                let mut y: Vec<f64> = free.iter().map(|&i| rhs[i]).collect();
+                SparseCholesky::new(&sub)?.solve_in_place(&mut y, 1)?;
+                for (&i, &v) in free.iter().zip(&y) {
+                    rhs[i] = v;
+                }
+            } else {
+                let fac = self.symbolic.factorize(&reduced)?;
+                fac.solve_in_place(&mut rhs, 1)?;
+            }
             let mut x = rhs;
             for i in 0..n {
                 if state[i] != Bound::Free {
