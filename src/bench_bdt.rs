@@ -25,10 +25,17 @@ use std::time::Instant;
 use crate::data::synthetic::FaustStyle;
 use crate::mesh::io::read_mesh;
 use crate::ops::{farthest_point_sampling, FpsMetric};
-use crate::transfer::keypoints::{
-    fit_keypoints, select_keypoints, KeypointOptions, SelectionMode,
-};
+use crate::transfer::keypoints::{fit_keypoints, select_keypoints, KeypointOptions, SelectionMode};
 use crate::{Mesh, Result};
+
+/// Appends a line to the table and echoes it to stderr (progress).
+macro_rules! emit {
+    ($out:expr, $($arg:tt)*) => {{
+        let line = format!($($arg)*);
+        eprintln!("{line}");
+        let _ = writeln!($out, "{line}");
+    }};
+}
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_unstable_by(f64::total_cmp);
@@ -52,7 +59,7 @@ fn bench_meshes(out: &mut String) -> Result<(Mesh, Vec<Mesh>)> {
                 }
             }
             if !deformed.is_empty() {
-                let _ = writeln!(
+                emit!(
                     out,
                     "mesh: {} ({} vertices); deformed sources of the same subject: {}",
                     a.display(),
@@ -72,7 +79,7 @@ fn bench_meshes(out: &mut String) -> Result<(Mesh, Vec<Mesh>)> {
     .generate()?;
     let source = set.meshes[0][0].clone();
     let deformed = set.meshes[0][1..].to_vec();
-    let _ = writeln!(
+    emit!(
         out,
         "mesh: FAUST sample not found; synthetic FAUST-style subject 0 ({} vertices), poses 1..=3",
         source.n_vertices()
@@ -88,15 +95,15 @@ pub fn run(quick: bool) -> Result<String> {
     let max_k = if quick { 6 } else { 12 };
     let reps = if quick { 2 } else { 3 };
     let threads = rayon::current_num_threads();
-    let _ = writeln!(
+    emit!(
         out,
         "n_c = {n_c}, rayon threads = {threads}; selections are single runs, trial times medians of {reps}\n"
     );
-    let _ = writeln!(
+    emit!(
         out,
         "| mode | m | ε | max k | key points | stage-1 / stage-2 steps | trials | final Ê | time (s) |"
     );
-    let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|");
+    emit!(out, "|---|---|---|---|---|---|---|---|---|");
     let ms: Vec<usize> = if deformed.len() > 1 {
         vec![1, deformed.len()]
     } else {
@@ -117,7 +124,7 @@ pub fn run(quick: bool) -> Result<String> {
             let secs = t.elapsed().as_secs_f64();
             let s1 = sel.trace.iter().filter(|s| s.stage == 1).count();
             let s2 = sel.trace.len() - s1;
-            let _ = writeln!(
+            emit!(
                 out,
                 "| fast | {m} | {eps} | {cap} | {} | {s1} / {s2} | {} | {:.3e} | {secs:.1} |",
                 sel.keypoints.len(),
@@ -131,8 +138,8 @@ pub fn run(quick: bool) -> Result<String> {
     }
 
     // Per-trial timings.
-    let _ = writeln!(out, "\n| mode | m | |S| | trial time (s, median) |");
-    let _ = writeln!(out, "|---|---|---|---|");
+    emit!(out, "\n| mode | m | |S| | trial time (s, median) |");
+    emit!(out, "|---|---|---|---|");
     let cands = farthest_point_sampling(&source, n_c, FpsMetric::Geodesic, 0)?;
     let sizes: Vec<usize> = [2, max_k / 2, max_k]
         .into_iter()
@@ -161,14 +168,14 @@ pub fn run(quick: bool) -> Result<String> {
                     SelectionMode::Fast => "fast",
                     SelectionMode::Exact => "exact",
                 };
-                let _ = writeln!(out, "| {name} (fit incl. setup) | {m} | {k} | {med:.3} |");
+                emit!(out, "| {name} (fit incl. setup) | {m} | {k} | {med:.3} |");
                 if mode == SelectionMode::Exact {
                     exact_at.push((m, k, med));
                 }
             }
         }
     }
-    let _ = writeln!(
+    emit!(
         out,
         "\nExact-mode extrapolation (trials of the ε = 0 fast run × mean exact trial time over the sizes above, / {threads} threads):"
     );
@@ -180,7 +187,7 @@ pub fn run(quick: bool) -> Result<String> {
             .collect();
         let mean = ts.iter().sum::<f64>() / ts.len().max(1) as f64;
         let est = *trials as f64 * mean / threads as f64;
-        let _ = writeln!(
+        emit!(
             out,
             "- m = {m}: {trials} trials × {mean:.2} s / {threads} ≈ {:.0} s ({:.2} h)",
             est,

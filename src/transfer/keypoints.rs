@@ -297,7 +297,8 @@ pub fn select_keypoints(
         keypoints: set.clone(),
         error,
     }];
-    while !(error < opts.epsilon) && set.len() < max_k {
+    // `error` is never NaN (failed trials count as +∞).
+    while error >= opts.epsilon && set.len() < max_k {
         let trials: Vec<Vec<usize>> = candidates
             .iter()
             .filter(|c| !set.contains(c))
