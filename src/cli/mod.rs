@@ -3,6 +3,8 @@
 mod bench;
 mod gen;
 mod inspect;
+mod keypoints;
+mod transfer;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -87,6 +89,12 @@ pub enum Command {
         #[arg(long)]
         brief: bool,
     },
+    /// Select key points on a source mesh from its deformed poses (BDT
+    /// Algorithm 1); print them with the error trace and the time.
+    Keypoints(keypoints::KeypointsArgs),
+    /// Select (or reuse) key points on the source, fit their transforms and
+    /// transfer every deformed pose to a target mesh (BDT Sec. 3.6).
+    Transfer(Box<transfer::TransferArgs>),
 }
 
 /// Runs a parsed command line.
@@ -115,5 +123,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             quick,
             threads,
         } => bench::run(&groups, quick, threads),
+        Command::Keypoints(a) => keypoints::run(a),
+        Command::Transfer(a) => transfer::run(*a),
     }
 }

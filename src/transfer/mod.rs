@@ -2,8 +2,13 @@
 //! (Sec. 3.6).
 
 pub mod keypoints;
+pub mod target;
 
 pub use keypoints::{
     fit_keypoints, select_keypoints, ErrorNorm, FastBounds, FastOptions, KeypointFit,
     KeypointOptions, KeypointSelection, SelectionMode, TraceStep,
+};
+pub use target::{
+    handle_relative, mean_vertex_error, transfer, transfer_detailed, TargetWeights, TransferFrame,
+    TransferOptions, TransferResult,
 };

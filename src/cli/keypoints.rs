@@ -1,0 +1,353 @@
+//! `deformlab keypoints`: automatic key point selection (BDT Sec. 3.5,
+//! Algorithm 1) on a source mesh and its deformed poses. Also the pieces
+//! `deformlab transfer` shares: selection options, mesh loading, the key
+//! point CSV and the JSON log.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use clap::{Args, ValueEnum};
+use serde_json::{json, Value};
+
+use deformlab::mesh::io::{read_mesh, write_atomic};
+use deformlab::transfer::keypoints::{
+    select_keypoints, ErrorNorm, KeypointOptions, KeypointSelection, SelectionMode,
+};
+use deformlab::{Error, Mesh, Result};
+
+/// Selection mode on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ModeArg {
+    /// Every candidate is scored with the full fit (Algorithm 1 as written).
+    Exact,
+    /// Cheaper scoring of candidates (see the library documentation).
+    Fast,
+}
+
+impl ModeArg {
+    fn mode(self) -> SelectionMode {
+        match self {
+            ModeArg::Exact => SelectionMode::Exact,
+            ModeArg::Fast => SelectionMode::Fast,
+        }
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            ModeArg::Exact => "exact",
+            ModeArg::Fast => "fast",
+        }
+    }
+}
+
+/// Error measure of the selection on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum NormArg {
+    /// BDT Eq. 22: 1/(m n) Σ_j ‖D_S(A) − A′_j‖_F (tiny on large meshes).
+    Paper,
+    /// Root-mean-square vertex distance, averaged over the sources.
+    Rms,
+}
+
+/// Source, deformed sources and the selection settings (shared by
+/// `keypoints` and `transfer`).
+#[derive(Args, Debug, Clone)]
+pub struct SelectArgs {
+    /// Source reference mesh A.
+    #[arg(long)]
+    pub source: PathBuf,
+    /// Deformed sources A′ (same connectivity as A), one or more.
+    #[arg(long, num_args = 1.., required = true)]
+    pub deformed: Vec<PathBuf>,
+    /// Number of farthest-point-sampled candidates n_c.
+    #[arg(long, default_value_t = 100)]
+    pub candidates: usize,
+    /// Seed of every random choice (first FPS sample, k-means of the groups).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Stop adding key points when the error (unit-sphere units) is below ε.
+    #[arg(long, default_value_t = 0.03)]
+    pub epsilon: f64,
+    /// Upper bound on the number of key points (default: the library's).
+    #[arg(long)]
+    pub max_keypoints: Option<usize>,
+    /// Candidate scoring.
+    #[arg(long, value_enum, default_value_t = ModeArg::Fast)]
+    pub mode: ModeArg,
+    /// Error compared with ε.
+    #[arg(long, value_enum, default_value_t = NormArg::Paper)]
+    pub error_norm: NormArg,
+}
+
+impl SelectArgs {
+    /// Library options from the command line.
+    pub fn options(&self) -> KeypointOptions {
+        let mut o = KeypointOptions {
+            n_candidates: self.candidates,
+            seed: self.seed,
+            epsilon: self.epsilon,
+            mode: self.mode.mode(),
+            error_norm: match self.error_norm {
+                NormArg::Paper => ErrorNorm::Paper,
+                NormArg::Rms => ErrorNorm::Rms,
+            },
+            ..KeypointOptions::default()
+        };
+        if let Some(k) = self.max_keypoints {
+            o.max_keypoints = k;
+        }
+        o
+    }
+
+    /// Loads A and the A′ (checking that every A′ has A's vertex count).
+    pub fn load(&self) -> Result<(Mesh, Vec<Mesh>)> {
+        let source = read_mesh(&self.source)?;
+        let deformed = self
+            .deformed
+            .iter()
+            .map(|p| {
+                let m = read_mesh(p)?;
+                if m.n_vertices() != source.n_vertices() {
+                    return Err(Error::parse(
+                        p,
+                        "mesh",
+                        format!(
+                            "{} vertices, but the source {} has {}",
+                            m.n_vertices(),
+                            self.source.display(),
+                            source.n_vertices()
+                        ),
+                    ));
+                }
+                Ok(m)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok((source, deformed))
+    }
+
+    /// The settings as JSON (for the log).
+    pub fn json(&self, opts: &KeypointOptions) -> Value {
+        json!({
+            "source": self.source.display().to_string(),
+            "deformed": self.deformed.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+            "candidates": opts.n_candidates,
+            "seed": opts.seed,
+            "epsilon": opts.epsilon,
+            "max_keypoints": opts.max_keypoints,
+            "mode": self.mode.name(),
+            "error_norm": format!("{:?}", opts.error_norm),
+        })
+    }
+}
+
+/// `deformlab keypoints` arguments.
+#[derive(Args, Debug)]
+#[command(after_help = "Examples:\n  \
+    deformlab keypoints --source faust/tr_reg_000.ply --deformed faust/tr_reg_003.ply faust/tr_reg_007.ply\n  \
+    deformlab keypoints --source A.ply --deformed A1.ply A2.ply --candidates 50 --mode exact --out kp/\n\n\
+    With --out DIR: DIR/keypoints.csv (source vertex, x y z on A) and DIR/log.json (settings,\n\
+    error trace, timings). Existing files are not overwritten unless --force is given.")]
+pub struct KeypointsArgs {
+    #[command(flatten)]
+    pub select: SelectArgs,
+    /// Output folder for keypoints.csv and log.json (created if missing).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Overwrite existing outputs.
+    #[arg(long)]
+    pub force: bool,
+}
+
+pub fn run(a: KeypointsArgs) -> Result<ExitCode> {
+    let t_all = Instant::now();
+    let outputs = a
+        .out
+        .as_ref()
+        .map(|d| vec![d.join("keypoints.csv"), d.join("log.json")])
+        .unwrap_or_default();
+    refuse_overwrite(&outputs, a.force)?;
+    let (source, deformed) = a.select.load()?;
+    let opts = a.select.options();
+    let sel = select_keypoints(&source, &deformed, &opts)?;
+    print_selection(&sel);
+    if let Some(dir) = &a.out {
+        create_dir(dir)?;
+        let rows: Vec<KeypointRow> = sel
+            .keypoints
+            .iter()
+            .map(|&s| KeypointRow {
+                source: s,
+                target: None,
+            })
+            .collect();
+        write_keypoints_csv(&outputs[0], &rows, &source, None)?;
+        let log = json!({
+            "command": "keypoints",
+            "version": env!("CARGO_PKG_VERSION"),
+            "settings": a.select.json(&opts),
+            "selection": selection_json(&sel),
+            "seconds_total": t_all.elapsed().as_secs_f64(),
+        });
+        write_json(&outputs[1], &log)?;
+        println!(
+            "wrote {} and {}",
+            outputs[0].display(),
+            outputs[1].display()
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Errors if any of `paths` exists and `force` is not set.
+pub fn refuse_overwrite(paths: &[PathBuf], force: bool) -> Result<()> {
+    if force {
+        return Ok(());
+    }
+    if let Some(p) = paths.iter().find(|p| p.exists()) {
+        return Err(Error::invalid(format!(
+            "{} already exists; pass --force to overwrite it",
+            p.display()
+        )));
+    }
+    Ok(())
+}
+
+pub fn create_dir(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))
+}
+
+pub fn write_json(path: &Path, v: &Value) -> Result<()> {
+    let mut s = serde_json::to_string_pretty(v)
+        .map_err(|e| Error::invalid(format!("cannot encode the log: {e}")))?;
+    s.push('\n');
+    write_atomic(path, s.as_bytes())
+}
+
+/// Prints the key points, the error trace and the time.
+pub fn print_selection(sel: &KeypointSelection) {
+    println!(
+        "{} key points (of {} candidates), error {:.6} (unit-sphere units), {} evaluations, {:.2} s",
+        sel.keypoints.len(),
+        sel.candidates.len(),
+        sel.error,
+        sel.evaluations,
+        sel.seconds
+    );
+    println!("key points (source vertices): {:?}", sel.keypoints);
+    println!("error trace:");
+    for (i, s) in sel.trace.iter().enumerate() {
+        println!(
+            "  {i:3}  stage {}  {:3} key points  error {:.6}",
+            s.stage,
+            s.keypoints.len(),
+            s.error
+        );
+    }
+}
+
+/// The selection as JSON.
+pub fn selection_json(sel: &KeypointSelection) -> Value {
+    json!({
+        "keypoints": sel.keypoints,
+        "candidates": sel.candidates,
+        "error": sel.error,
+        "evaluations": sel.evaluations,
+        "seconds": sel.seconds,
+        "normalization": { "center": [sel.normalization.center.x, sel.normalization.center.y, sel.normalization.center.z], "scale": sel.normalization.scale },
+        "trace": sel.trace.iter().map(|s| json!({
+            "stage": s.stage, "keypoints": s.keypoints, "error": s.error
+        })).collect::<Vec<_>>(),
+    })
+}
+
+/// One row of a key point CSV.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct KeypointRow {
+    pub source: usize,
+    pub target: Option<usize>,
+}
+
+/// Writes `source,ax,ay,az` rows, or `source,target,ax,ay,az,bx,by,bz` when
+/// a target mesh is given (0-based vertex indices).
+pub fn write_keypoints_csv(
+    path: &Path,
+    rows: &[KeypointRow],
+    source: &Mesh,
+    target: Option<&Mesh>,
+) -> Result<()> {
+    let mut s = String::new();
+    match target {
+        None => s.push_str("source,ax,ay,az\n"),
+        Some(_) => s.push_str("source,target,ax,ay,az,bx,by,bz\n"),
+    }
+    for r in rows {
+        let a = source.vertices()[r.source];
+        match (target, r.target) {
+            (Some(b), Some(t)) => {
+                let bp = b.vertices()[t];
+                s.push_str(&format!("{},{},{},{}\n", r.source, t, xyz(&a), xyz(&bp)));
+            }
+            _ => s.push_str(&format!("{},{}\n", r.source, xyz(&a))),
+        }
+    }
+    write_atomic(path, s.as_bytes())
+}
+
+/// `x,y,z`, each in the shortest form that reads back exactly (exponent
+/// form for tiny values).
+fn xyz(p: &deformlab::Point) -> String {
+    let f = |x: f64| {
+        if x != 0.0 && x.abs() < 1e-4 {
+            format!("{x:e}")
+        } else {
+            format!("{x}")
+        }
+    };
+    format!("{},{},{}", f(p.x), f(p.y), f(p.z))
+}
+
+/// Reads a key point CSV written by [`write_keypoints_csv`] (a header with a
+/// `source` column and optionally a `target` column; 0-based indices).
+pub fn read_keypoints_csv(path: &Path) -> Result<Vec<KeypointRow>> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
+    let Some((_, header)) = lines.next() else {
+        return Err(Error::parse(path, "header", "empty key point file"));
+    };
+    let cols: Vec<&str> = header.split(',').map(str::trim).collect();
+    let Some(src_col) = cols.iter().position(|c| *c == "source") else {
+        return Err(Error::parse(
+            path,
+            "header",
+            "no `source` column (expected the keypoints.csv written by deformlab)",
+        ));
+    };
+    let tgt_col = cols.iter().position(|c| *c == "target");
+    let mut rows = Vec::new();
+    for (i, line) in lines {
+        let f: Vec<&str> = line.split(',').map(str::trim).collect();
+        let parse = |c: usize| -> Result<usize> {
+            let s = f.get(c).copied().unwrap_or("");
+            s.parse().map_err(|_| {
+                Error::parse(
+                    path,
+                    format!("line {}", i + 1),
+                    format!("{s:?} is not a vertex index"),
+                )
+            })
+        };
+        let source = parse(src_col)?;
+        let target = match tgt_col {
+            Some(c) if f.get(c).is_some_and(|s| !s.is_empty()) => Some(parse(c)?),
+            _ => None,
+        };
+        rows.push(KeypointRow { source, target });
+    }
+    if rows.is_empty() {
+        return Err(Error::parse(path, "file", "no key points"));
+    }
+    Ok(rows)
+}

@@ -1,0 +1,438 @@
+//! `deformlab transfer`: key point selection on the source (or reuse of a
+//! key point file), then deformation transfer to a target (BDT Sec. 3.6).
+//!
+//! **Matching key points to the target.** Three ways:
+//!
+//! * `--same-connectivity`: target vertex = source vertex (same index);
+//! * `--target-keypoints i,j,k`: an explicit list, in key point order (use
+//!   it with `--keypoints FILE` so the count is known in advance);
+//! * `--correspondence FILE`: a sparse marker set (source vertex → target
+//!   vertex, e.g. user-clicked points, as in the paper). A key point must be
+//!   a source vertex of the file. Selected key points are **snapped to the
+//!   nearest marker** (Euclidean distance on A; a marker is used once, a key
+//!   point whose nearest marker is taken gets the next nearest free one), and
+//!   the transforms are re-fitted for the snapped set; the snapping is
+//!   printed and logged. Key points given with `--keypoints` are not snapped:
+//!   one that is not in the file is an error.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use clap::{ArgGroup, Args, ValueEnum};
+use serde_json::{json, Value};
+
+use deformlab::data::correspondence::{check_pairs, read_pairs, PairFormat};
+use deformlab::mesh::io::{read_mesh, write_ply};
+use deformlab::skin::Affine;
+use deformlab::transfer::keypoints::{fit_keypoints, select_keypoints, SelectionMode};
+use deformlab::transfer::{transfer_detailed, TargetWeights, TransferFrame, TransferOptions};
+use deformlab::{Error, Mesh, Result};
+
+use super::keypoints::{
+    create_dir, print_selection, read_keypoints_csv, refuse_overwrite, selection_json, write_json,
+    write_keypoints_csv, KeypointRow, SelectArgs,
+};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FrameArg {
+    /// T_k applied to B as is (A and B in one frame).
+    Direct,
+    /// Same linear part and same handle displacement as on A.
+    HandleRelative,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FormatArg {
+    Csv,
+    MarkersYml,
+    Cons,
+}
+
+/// `deformlab transfer` arguments.
+#[derive(Args, Debug)]
+#[command(group(ArgGroup::new("target_map").args(["correspondence", "same_connectivity", "target_keypoints"]).multiple(false)))]
+#[command(after_help = "Examples:\n  \
+    deformlab transfer --source faust/tr_reg_000.ply --deformed faust/tr_reg_003.ply faust/tr_reg_007.ply \\\n      \
+    --target faust/tr_reg_010.ply --same-connectivity --out out/t1\n  \
+    deformlab transfer --source A.ply --deformed A1.ply --target B.ply --correspondence markers.yml \\\n      \
+    --format markers-yml --frame handle-relative --refine --out out/t2\n  \
+    deformlab transfer --source A.ply --deformed A1.ply --target B.ply --keypoints out/t1/keypoints.csv \\\n      \
+    --target-keypoints 12,40,77 --out out/t3\n\n\
+    Writes DIR/<deformed>_to_<target>.ply (one per deformed source), DIR/keypoints.csv\n\
+    (source vertex, target vertex, x y z on A, x y z on B) and DIR/log.json (settings, selection\n\
+    error trace, timings). Existing files are not overwritten unless --force is given.\n\
+    With --correspondence, selected key points are snapped to the nearest source vertex of the\n\
+    file and the transforms re-fitted. A --keypoints file with a `target` column needs no other\n\
+    target option.")]
+pub struct TransferArgs {
+    #[command(flatten)]
+    pub select: SelectArgs,
+    /// Target reference mesh B.
+    #[arg(long)]
+    pub target: PathBuf,
+    /// Source→target vertex correspondences (markers).
+    #[arg(long)]
+    pub correspondence: Option<PathBuf>,
+    /// Format of the correspondence file (default: from its extension).
+    #[arg(long, value_enum, requires = "correspondence")]
+    pub format: Option<FormatArg>,
+    /// Index base of the correspondence file (default: the format's).
+    #[arg(long, requires = "correspondence")]
+    pub base: Option<usize>,
+    /// A and B share connectivity: target key point = source key point.
+    #[arg(long)]
+    pub same_connectivity: bool,
+    /// Target vertices of the key points, comma separated, in key point order.
+    #[arg(long, value_delimiter = ',')]
+    pub target_keypoints: Option<Vec<usize>>,
+    /// Reuse a keypoints.csv (from `deformlab keypoints` or `transfer`)
+    /// instead of selecting; the transforms are fitted for these key points.
+    #[arg(long)]
+    pub keypoints: Option<PathBuf>,
+    /// Output folder (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// How the transforms act on B.
+    #[arg(long, value_enum, default_value_t = FrameArg::Direct)]
+    pub frame: FrameArg,
+    /// Refine each B′ with handle-constrained reduced ARAP on B.
+    #[arg(long)]
+    pub refine: bool,
+    /// Overwrite existing outputs.
+    #[arg(long)]
+    pub force: bool,
+}
+
+enum TargetMap {
+    Same,
+    List(Vec<usize>),
+    Markers {
+        path: PathBuf,
+        map: HashMap<usize, usize>,
+        sources: Vec<usize>,
+    },
+    FromFile,
+}
+
+fn stem(p: &Path) -> String {
+    p.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "mesh".into())
+}
+
+pub fn run(a: TransferArgs) -> Result<ExitCode> {
+    let t_all = Instant::now();
+    // Output paths first, so nothing is computed for a run that would refuse.
+    let tstem = stem(&a.target);
+    let mut mesh_out = Vec::new();
+    for d in &a.select.deformed {
+        let p = a.out.join(format!("{}_to_{tstem}.ply", stem(d)));
+        if mesh_out.contains(&p) {
+            return Err(Error::invalid(format!(
+                "two deformed sources would both be written to {}; rename one",
+                p.display()
+            )));
+        }
+        mesh_out.push(p);
+    }
+    let kp_out = a.out.join("keypoints.csv");
+    let log_out = a.out.join("log.json");
+    let mut all_out = mesh_out.clone();
+    all_out.extend([kp_out.clone(), log_out.clone()]);
+    refuse_overwrite(&all_out, a.force)?;
+
+    let (source, deformed) = a.select.load()?;
+    let target = read_mesh(&a.target)?;
+    let opts = a.select.options();
+
+    let given = match &a.keypoints {
+        Some(p) => Some((p.clone(), read_keypoints_csv(p)?)),
+        None => None,
+    };
+    let map = target_map(&a, &source, &target, given.as_ref())?;
+
+    // Source key points and their transforms.
+    let log_sel: Value;
+    let mut snapped_log = Value::Null;
+    let (source_kp, transforms, fit_error): (Vec<usize>, Vec<Vec<Affine>>, f64) = match &given {
+        Some((path, rows)) => {
+            let kp: Vec<usize> = rows.iter().map(|r| r.source).collect();
+            if let Some(&bad) = kp.iter().find(|&&v| v >= source.n_vertices()) {
+                return Err(Error::parse(
+                    path,
+                    "key points",
+                    format!(
+                        "vertex {bad} out of range for the source ({} vertices)",
+                        source.n_vertices()
+                    ),
+                ));
+            }
+            let t = Instant::now();
+            let fit = fit_keypoints(&source, &deformed, &kp, &opts)
+                .map_err(|e| Error::invalid(format!("{}: {e}", path.display())))?;
+            println!(
+                "{} key points from {}, fit error {:.6} (unit-sphere units), {:.2} s",
+                kp.len(),
+                path.display(),
+                fit.error,
+                t.elapsed().as_secs_f64()
+            );
+            log_sel = json!({"from_file": path.display().to_string(), "keypoints": kp,
+                "error": fit.error, "seconds": t.elapsed().as_secs_f64()});
+            (kp, fit.transforms, fit.error)
+        }
+        None => {
+            let sel = select_keypoints(&source, &deformed, &opts)?;
+            print_selection(&sel);
+            log_sel = selection_json(&sel);
+            match &map {
+                TargetMap::Markers { path, sources, .. } => {
+                    let snapped = snap_to_markers(&source, &sel.keypoints, sources);
+                    if snapped == sel.keypoints {
+                        println!("all key points are markers of {}", path.display());
+                        (sel.keypoints.clone(), sel.transforms.clone(), sel.error)
+                    } else {
+                        let t = Instant::now();
+                        let fit = fit_keypoints(&source, &deformed, &snapped, &opts)?;
+                        println!(
+                            "snapped to the nearest markers of {}: {:?}, re-fitted error {:.6} ({:.2} s)",
+                            path.display(),
+                            snapped,
+                            fit.error,
+                            t.elapsed().as_secs_f64()
+                        );
+                        snapped_log = json!({"keypoints": snapped, "error": fit.error,
+                            "seconds": t.elapsed().as_secs_f64()});
+                        (snapped, fit.transforms, fit.error)
+                    }
+                }
+                _ => (sel.keypoints.clone(), sel.transforms.clone(), sel.error),
+            }
+        }
+    };
+
+    let target_kp: Vec<usize> = match &map {
+        TargetMap::Same => source_kp.clone(),
+        TargetMap::List(v) => {
+            if v.len() != source_kp.len() {
+                return Err(Error::invalid(format!(
+                    "--target-keypoints has {} vertices but there are {} key points {:?}; \
+                     pass --keypoints FILE to fix the source key points",
+                    v.len(),
+                    source_kp.len(),
+                    source_kp
+                )));
+            }
+            v.clone()
+        }
+        TargetMap::Markers { path, map, .. } => source_kp
+            .iter()
+            .map(|s| {
+                map.get(s).copied().ok_or_else(|| {
+                    Error::parse(
+                        path,
+                        "markers",
+                        format!("key point (source vertex {s}) is not a source vertex of the file"),
+                    )
+                })
+            })
+            .collect::<Result<_>>()?,
+        TargetMap::FromFile => given
+            .as_ref()
+            .map(|(_, rows)| rows.iter().filter_map(|r| r.target).collect())
+            .unwrap_or_default(),
+    };
+
+    let topts = TransferOptions {
+        frame: match a.frame {
+            FrameArg::Direct => TransferFrame::Direct,
+            FrameArg::HandleRelative => TransferFrame::HandleRelative,
+        },
+        weights: opts.weights,
+        // B is skinned the way A was when the transforms were fitted.
+        weight_kind: match opts.mode {
+            SelectionMode::Exact => TargetWeights::Bounded,
+            SelectionMode::Fast => TargetWeights::Fast(opts.fast.bounds),
+        },
+        refine: a.refine,
+        seed: a.select.seed,
+        ..TransferOptions::default()
+    };
+    let res = transfer_detailed(
+        &source,
+        &source_kp,
+        &transforms,
+        &target,
+        &target_kp,
+        &topts,
+    )?;
+
+    create_dir(&a.out)?;
+    for (p, m) in mesh_out.iter().zip(&res.meshes) {
+        write_ply(p, m)?;
+    }
+    let rows: Vec<KeypointRow> = source_kp
+        .iter()
+        .zip(&target_kp)
+        .map(|(&s, &t)| KeypointRow {
+            source: s,
+            target: Some(t),
+        })
+        .collect();
+    write_keypoints_csv(&kp_out, &rows, &source, Some(&target))?;
+    let log = json!({
+        "command": "transfer",
+        "version": env!("CARGO_PKG_VERSION"),
+        "settings": a.select.json(&opts),
+        "target": a.target.display().to_string(),
+        "target_map": match &map {
+            TargetMap::Same => "same-connectivity".to_string(),
+            TargetMap::List(_) => "list".to_string(),
+            TargetMap::Markers { path, .. } => format!("correspondence {}", path.display()),
+            TargetMap::FromFile => "keypoints file".to_string(),
+        },
+        "frame": topts.frame.name(),
+        "refine": a.refine,
+        "selection": log_sel,
+        "snapped": snapped_log,
+        "fit_error": fit_error,
+        "source_keypoints": source_kp,
+        "target_keypoints": target_kp,
+        "seconds": {
+            "target_weights": res.seconds_weights,
+            "lbs": res.seconds_lbs,
+            "refine": res.seconds_refine,
+            "total": t_all.elapsed().as_secs_f64(),
+        },
+        "outputs": mesh_out.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+    });
+    write_json(&log_out, &log)?;
+    println!(
+        "transferred {} deformation(s) to {} ({} key points, frame {}, {}): weights {:.2} s, LBS {:.2} s, refine {:.2} s, total {:.2} s",
+        res.meshes.len(),
+        a.target.display(),
+        source_kp.len(),
+        topts.frame.name(),
+        if a.refine { "refined" } else { "not refined" },
+        res.seconds_weights,
+        res.seconds_lbs,
+        res.seconds_refine,
+        t_all.elapsed().as_secs_f64()
+    );
+    for p in &mesh_out {
+        println!("  wrote {}", p.display());
+    }
+    println!("  wrote {} and {}", kp_out.display(), log_out.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn target_map(
+    a: &TransferArgs,
+    source: &Mesh,
+    target: &Mesh,
+    given: Option<&(PathBuf, Vec<KeypointRow>)>,
+) -> Result<TargetMap> {
+    if a.same_connectivity {
+        if source.n_vertices() != target.n_vertices() {
+            return Err(Error::parse(
+                &a.target,
+                "mesh",
+                format!(
+                    "--same-connectivity, but the target has {} vertices and the source {} has {}",
+                    target.n_vertices(),
+                    a.select.source.display(),
+                    source.n_vertices()
+                ),
+            ));
+        }
+        return Ok(TargetMap::Same);
+    }
+    if let Some(v) = &a.target_keypoints {
+        if let Some((path, rows)) = given {
+            if rows.len() != v.len() {
+                return Err(Error::invalid(format!(
+                    "--target-keypoints has {} vertices but {} holds {} key points",
+                    v.len(),
+                    path.display(),
+                    rows.len()
+                )));
+            }
+        }
+        return Ok(TargetMap::List(v.clone()));
+    }
+    if let Some(path) = &a.correspondence {
+        let format = match a.format {
+            Some(FormatArg::Csv) => PairFormat::Csv,
+            Some(FormatArg::MarkersYml) => PairFormat::MarkersYml,
+            Some(FormatArg::Cons) => PairFormat::Cons,
+            None => PairFormat::from_path(path),
+        };
+        let pairs = read_pairs(path, format, a.base)?;
+        check_pairs(path, &pairs, source.n_vertices(), target.n_vertices())?;
+        if pairs.is_empty() {
+            return Err(Error::parse(path, "file", "no correspondences"));
+        }
+        let mut map = HashMap::new();
+        let mut sources = Vec::new();
+        for p in &pairs {
+            if let Some(&t) = map.get(&p.source) {
+                if t != p.target {
+                    return Err(Error::parse(
+                        path,
+                        "markers",
+                        format!(
+                            "source vertex {} is matched to both {t} and {}",
+                            p.source, p.target
+                        ),
+                    ));
+                }
+            } else {
+                map.insert(p.source, p.target);
+                sources.push(p.source);
+            }
+        }
+        return Ok(TargetMap::Markers {
+            path: path.clone(),
+            map,
+            sources,
+        });
+    }
+    match given {
+        Some((_, rows)) if rows.iter().all(|r| r.target.is_some()) => Ok(TargetMap::FromFile),
+        Some((path, _)) => Err(Error::invalid(format!(
+            "{} has no `target` column; pass --same-connectivity, --target-keypoints or --correspondence",
+            path.display()
+        ))),
+        None => Err(Error::invalid(
+            "no target key points: pass --same-connectivity, --target-keypoints or --correspondence",
+        )),
+    }
+}
+
+/// Each key point → the nearest marker source vertex (Euclidean on A) not
+/// yet used by an earlier key point (key point order). Returns at most as
+/// many key points as there are markers.
+fn snap_to_markers(source: &Mesh, keypoints: &[usize], markers: &[usize]) -> Vec<usize> {
+    let v = source.vertices();
+    let mut used = vec![false; markers.len()];
+    let mut out = Vec::with_capacity(keypoints.len());
+    for &k in keypoints {
+        let best = markers
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| !used[*i])
+            .min_by(|(_, &x), (_, &y)| {
+                (v[x] - v[k])
+                    .norm_squared()
+                    .total_cmp(&(v[y] - v[k]).norm_squared())
+            })
+            .map(|(i, &m)| (i, m));
+        if let Some((i, m)) = best {
+            used[i] = true;
+            out.push(m);
+        }
+    }
+    out
+}
