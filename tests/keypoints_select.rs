@@ -226,3 +226,33 @@ fn bad_input_is_an_error() {
     };
     assert!(select_keypoints(&a, &d, &fps_euclid).is_ok());
 }
+
+#[test]
+fn fit_without_ediff_is_handle_constrained_fast() {
+    // E_diff off (FAST ablation): the key points are soft handle
+    // constraints, so they land on their targets, while the rest of the mesh
+    // fits A′ worse than with the E_diff data term.
+    let (a, d) = data();
+    let keys = deformlab::ops::farthest_point_sampling(&a, 5, FpsMetric::Geodesic, 3).unwrap();
+    let mut opts = small_opts(SelectionMode::Exact);
+    let with = fit_keypoints(&a, &d, &keys, &opts).unwrap();
+    opts.arap.use_ediff = false;
+    let without = fit_keypoints(&a, &d, &keys, &opts).unwrap();
+    let scale = a
+        .vertices()
+        .iter()
+        .map(|p| p.coords.norm())
+        .fold(0.0, f64::max);
+    for (pos, target) in without.positions.iter().zip(&d) {
+        for &k in &keys {
+            let miss = (pos[k] - target.vertices()[k]).norm();
+            assert!(miss < 1e-3 * scale, "key point {k} misses by {miss}");
+        }
+    }
+    assert!(
+        with.error < without.error,
+        "E_diff {} vs handle-only {}",
+        with.error,
+        without.error
+    );
+}

@@ -558,7 +558,11 @@ impl<'a> Context<'a> {
         let w = self.weights(set, fast)?;
         let groups = self.groups(&w, fast.is_some())?;
         let mut arap_opts = self.opts.arap.clone();
-        arap_opts.use_ediff = true;
+        if !arap_opts.use_ediff {
+            // FAST ablation (E_diff off): the key points are the handles whose
+            // target positions constrain the ARAP solve.
+            arap_opts.handles = set.to_vec();
+        }
         if fast.is_some() {
             arap_opts.max_iter = arap_opts.max_iter.min(self.opts.fast.arap_max_iter.max(1));
         }
