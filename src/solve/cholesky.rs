@@ -91,6 +91,17 @@ fn check_symmetric(a: &SparseMatrix) -> Result<f64> {
     Ok(max_diag)
 }
 
+/// Checks an in-place solve buffer (column-major `n × ncols`); `Ok(false)`
+/// when there is nothing to solve.
+fn check_solve_buffer(n: usize, len: usize, ncols: usize) -> Result<bool> {
+    if len != n * ncols {
+        return Err(Error::invalid(format!(
+            "solve buffer has {len} values, expected {n}×{ncols}"
+        )));
+    }
+    Ok(ncols > 0)
+}
+
 fn faer_view(a: &SparseMatrix) -> SparseColMatRef<'_, usize, f64> {
     let sym = SymbolicSparseColMatRef::new_checked(
         a.nrows(),
@@ -384,13 +395,7 @@ impl SparseCholesky {
     /// Solves `A X = B` in place; `x` is column-major `n × ncols`.
     pub fn solve_in_place(&self, x: &mut [f64], ncols: usize) -> Result<()> {
         let n = self.nrows();
-        if x.len() != n * ncols {
-            return Err(Error::invalid(format!(
-                "solve buffer has {} values, expected {n}×{ncols}",
-                x.len()
-            )));
-        }
-        if ncols == 0 {
+        if !check_solve_buffer(n, x.len(), ncols)? {
             return Ok(());
         }
         let mut buf = self.symbolic.solve_scratch(ncols);
@@ -513,13 +518,7 @@ impl SparseLdlt {
     /// Solves `A X = B` in place; `x` is column-major `n × ncols`.
     pub fn solve_in_place(&self, x: &mut [f64], ncols: usize) -> Result<()> {
         let n = self.nrows();
-        if x.len() != n * ncols {
-            return Err(Error::invalid(format!(
-                "solve buffer has {} values, expected {n}×{ncols}",
-                x.len()
-            )));
-        }
-        if ncols == 0 {
+        if !check_solve_buffer(n, x.len(), ncols)? {
             return Ok(());
         }
         let mut buf = self.symbolic.solve_scratch(ncols);
