@@ -10,6 +10,25 @@
 //! ```
 //!
 //! Algorithms never touch files: only `mesh::io` and `data` do I/O.
+//!
+//! ```
+//! use deformlab::mesh::primitives::icosphere;
+//! use deformlab::ops::{cotan_laplacian, mass_matrix, total_area, MassKind};
+//!
+//! let sphere = icosphere(3);
+//! let l = cotan_laplacian(&sphere);
+//! // Zero row sums: constants are in the kernel of the Laplacian.
+//! let mut rows = vec![0.0; sphere.n_vertices()];
+//! for (i, _, x) in l.triplet_iter() {
+//!     rows[i] += x;
+//! }
+//! assert!(rows.iter().all(|r| r.abs() < 1e-10));
+//! // The lumped mass sums to the surface area (a bit below 4π: the mesh is
+//! // inscribed in the unit sphere).
+//! let area: f64 = mass_matrix(&sphere, MassKind::Voronoi).iter().sum();
+//! assert!((area - total_area(&sphere)).abs() < 1e-10);
+//! assert!(area < 4.0 * std::f64::consts::PI && area > 0.99 * 4.0 * std::f64::consts::PI);
+//! ```
 
 pub mod arap;
 pub mod bench;
