@@ -179,6 +179,19 @@ fn vert_tri_pair() {
 
 // ------------------------------------------------------------ PLY by hand
 
+/// One appender per number type, in the file's byte order.
+macro_rules! bin_writers {
+    ($($t:ident),*) => {
+        $(
+            fn $t(&mut self, x: $t) -> &mut Self {
+                let b = if self.be { x.to_be_bytes() } else { x.to_le_bytes() };
+                self.buf.extend_from_slice(&b);
+                self
+            }
+        )*
+    };
+}
+
 /// Builds a binary PLY. `be` chooses big endian.
 struct Bin {
     buf: Vec<u8>,
@@ -192,51 +205,7 @@ impl Bin {
             be,
         }
     }
-    fn f32(&mut self, x: f32) -> &mut Self {
-        let b = if self.be {
-            x.to_be_bytes()
-        } else {
-            x.to_le_bytes()
-        };
-        self.buf.extend_from_slice(&b);
-        self
-    }
-    fn f64(&mut self, x: f64) -> &mut Self {
-        let b = if self.be {
-            x.to_be_bytes()
-        } else {
-            x.to_le_bytes()
-        };
-        self.buf.extend_from_slice(&b);
-        self
-    }
-    fn i32(&mut self, x: i32) -> &mut Self {
-        let b = if self.be {
-            x.to_be_bytes()
-        } else {
-            x.to_le_bytes()
-        };
-        self.buf.extend_from_slice(&b);
-        self
-    }
-    fn u32(&mut self, x: u32) -> &mut Self {
-        let b = if self.be {
-            x.to_be_bytes()
-        } else {
-            x.to_le_bytes()
-        };
-        self.buf.extend_from_slice(&b);
-        self
-    }
-    fn u16(&mut self, x: u16) -> &mut Self {
-        let b = if self.be {
-            x.to_be_bytes()
-        } else {
-            x.to_le_bytes()
-        };
-        self.buf.extend_from_slice(&b);
-        self
-    }
+    bin_writers!(f32, f64, i32, u32, u16);
     fn u8(&mut self, x: u8) -> &mut Self {
         self.buf.push(x);
         self
