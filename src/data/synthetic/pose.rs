@@ -224,27 +224,24 @@ pub fn pose_table() -> [Pose; N_POSES] {
             ..Spec::default()
         },
         // 5 squat: hips and knees at ~90°, arms forward.
-        Spec {
-            left: Side {
+        {
+            // Both sides alike.
+            let side = Side {
                 arm_forward: 80.0,
                 elbow: 30.0,
                 hip: 80.0,
                 knee: 95.0,
                 hip_out: 10.0,
                 ..arms_down(10.0)
-            },
-            right: Side {
-                arm_forward: 80.0,
-                elbow: 30.0,
-                hip: 80.0,
-                knee: 95.0,
-                hip_out: 10.0,
-                ..arms_down(10.0)
-            },
-            chest_bend: 25.0,
-            head_nod: -15.0,
-            tail_lift: -30.0,
-            ..Spec::default()
+            };
+            Spec {
+                left: side,
+                right: side,
+                chest_bend: 25.0,
+                head_nod: -15.0,
+                tail_lift: -30.0,
+                ..Spec::default()
+            }
         },
         // 6 stride: one leg forward with the knee bent, arms swinging.
         Spec {
