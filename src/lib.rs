@@ -38,6 +38,7 @@ pub mod data;
 pub mod error;
 pub mod mesh;
 pub mod ops;
+pub mod plot;
 pub mod skin;
 pub mod solve;
 pub mod transfer;
