@@ -1,13 +1,16 @@
 //! The precomputed reduced ARAP solver (see the module documentation of
 //! [`crate::arap`] for the energy and the conventions).
 
+use std::sync::Arc;
+
 use nalgebra::{Cholesky, DMatrix, Dyn};
 
 use crate::mesh::Mesh;
 use crate::ops::{cotan_weights, polar_decomposition};
+use crate::skin::lbs::lbs_operator_transposed;
 use crate::skin::lbs::{points_from_matrix, points_to_matrix};
-use crate::skin::{transforms_from_stacked, Affine, LbsMatrix};
-use crate::solve::{sparse_from_triplets, SparseMatrix};
+use crate::skin::{transforms_from_stacked, Affine};
+use crate::solve::dense::{mul_tr, tr_mul};
 use crate::{Error, Mat3, Point, Result};
 
 /// Below this fraction of the problem's energy scale the energy counts as
@@ -68,33 +71,201 @@ pub struct ArapSolution {
     pub iterations: usize,
 }
 
+/// The mesh-only part of the reduced ARAP precomputation: rest positions,
+/// clamped cotangent edge weights `w̃` and the 1-ring lists of `L̃`. Build
+/// it once per mesh and share it ([`ReducedArap::with_mesh`]) when many
+/// (weights, groups) are tried on one mesh, as key point selection does.
+#[derive(Clone, Debug)]
+pub struct ArapMesh {
+    rest: Vec<Point>,
+    /// Undirected edges `(i, j, w̃)` with `w̃ > 0`.
+    edges: Vec<(usize, usize, f64)>,
+    /// CSR 1-rings of `L̃`: neighbours of `i` are
+    /// `ring[ring_start[i]..ring_start[i + 1]]` with weights `ring_w`.
+    ring_start: Vec<usize>,
+    ring: Vec<usize>,
+    ring_w: Vec<f64>,
+    /// `w̃_ij (p_i − p_j)` of each ring entry `j` of `i`.
+    ring_we: Vec<[f64; 3]>,
+    /// `L̃_ii = Σ_j w̃_ij`.
+    diag: Vec<f64>,
+    /// `tr(Pᵀ L̃ P)`: the constant of E_arap.
+    rest_term: f64,
+}
+
+impl ArapMesh {
+    /// Clamped cotangent weights and 1-rings of `mesh`. O(n).
+    pub fn new(mesh: &Mesh) -> Self {
+        let n = mesh.n_vertices();
+        let rest = mesh.vertices().to_vec();
+        let edges: Vec<(usize, usize, f64)> = cotan_weights(mesh)
+            .into_iter()
+            .filter(|&(_, w)| w > 0.0)
+            .map(|((i, j), w)| (i, j, w))
+            .collect();
+        let mut count = vec![0usize; n + 1];
+        let mut diag = vec![0.0; n];
+        let mut rest_term = 0.0;
+        for &(i, j, w) in &edges {
+            count[i + 1] += 1;
+            count[j + 1] += 1;
+            diag[i] += w;
+            diag[j] += w;
+            rest_term += w * (rest[i] - rest[j]).norm_squared();
+        }
+        for i in 0..n {
+            count[i + 1] += count[i];
+        }
+        let ring_start = count.clone();
+        let mut fill = count;
+        let mut ring = vec![0; 2 * edges.len()];
+        let mut ring_w = vec![0.0; 2 * edges.len()];
+        let mut ring_we = vec![[0.0; 3]; 2 * edges.len()];
+        for &(i, j, w) in &edges {
+            for (a, b) in [(i, j), (j, i)] {
+                let e = (rest[a] - rest[b]) * w;
+                ring[fill[a]] = b;
+                ring_w[fill[a]] = w;
+                ring_we[fill[a]] = [e.x, e.y, e.z];
+                fill[a] += 1;
+            }
+        }
+        ArapMesh {
+            rest,
+            edges,
+            ring_start,
+            ring,
+            ring_w,
+            ring_we,
+            diag,
+            rest_term,
+        }
+    }
+
+    /// Number of vertices.
+    pub fn n_vertices(&self) -> usize {
+        self.rest.len()
+    }
+
+    /// `(α L̃ X + β X)ᵀ` for `xt = Xᵀ` (columns = vertices, contiguous).
+    fn apply_laplacian_t(&self, xt: &DMatrix<f64>, alpha: f64, beta: f64) -> DMatrix<f64> {
+        let (c, n) = xt.shape();
+        let mut yt = DMatrix::zeros(c, n);
+        if c == 0 {
+            return yt;
+        }
+        let x = xt.as_slice();
+        for (i, yi) in yt.as_mut_slice().chunks_exact_mut(c).enumerate() {
+            let s = beta + alpha * self.diag[i];
+            for (y, v) in yi.iter_mut().zip(&x[i * c..(i + 1) * c]) {
+                *y = s * v;
+            }
+            for r in self.ring_start[i]..self.ring_start[i + 1] {
+                let f = alpha * self.ring_w[r];
+                let j = self.ring[r];
+                for (y, v) in yi.iter_mut().zip(&x[j * c..(j + 1) * c]) {
+                    *y -= f * v;
+                }
+            }
+        }
+        yt
+    }
+
+    /// `(C K)ᵀ` (cols × 3|G|) for `kt = Kᵀ`: column `3g + a` sums
+    /// `w̃ (p_i − p_j)_a (K_i − K_j)` over the spokes `i → j` of the
+    /// vertices `i` of group `g`. Gathered per vertex `v`: `K_v` enters
+    /// group `g` with coefficient `[g = g(v)] Σ_j w̃_vj (p_v − p_j) +
+    /// Σ_{i ∈ N(v), g(i) = g} w̃_vi (p_v − p_i)` (its own spokes, and the
+    /// spokes of its neighbours that end at `v`), so the cost is one axpy of
+    /// `K_v` per (vertex, group touching its 1-ring, axis): about 3n.
+    fn covariance_operator_t(
+        &self,
+        groups: &[usize],
+        n_groups: usize,
+        kt: &DMatrix<f64>,
+    ) -> DMatrix<f64> {
+        let c = kt.nrows();
+        let mut ckt = DMatrix::zeros(c, 3 * n_groups);
+        if c == 0 || n_groups == 0 {
+            return ckt;
+        }
+        let x = kt.as_slice();
+        let out = ckt.as_mut_slice();
+        let mut coef: Vec<(usize, [f64; 3])> = Vec::new();
+        for (v, kv) in x.chunks_exact(c).enumerate() {
+            coef.clear();
+            let ring = self.ring_start[v]..self.ring_start[v + 1];
+            let mut own = [0.0; 3];
+            for we in &self.ring_we[ring.clone()] {
+                for a in 0..3 {
+                    own[a] += we[a];
+                }
+            }
+            coef.push((groups[v], own));
+            for r in ring {
+                let g = groups[self.ring[r]];
+                let we = self.ring_we[r];
+                match coef.iter_mut().find(|(h, _)| *h == g) {
+                    Some((_, cf)) => {
+                        for a in 0..3 {
+                            cf[a] += we[a];
+                        }
+                    }
+                    None => coef.push((g, we)),
+                }
+            }
+            for &(g, cf) in &coef {
+                for (a, &f) in cf.iter().enumerate() {
+                    let col = 3 * g + a;
+                    for (o, k) in out[col * c..(col + 1) * c].iter_mut().zip(kv) {
+                        *o += f * k;
+                    }
+                }
+            }
+        }
+        ckt
+    }
+
+    /// Group covariances `S = C Q` (3|G| × 3) of positions `q`.
+    fn covariances(&self, groups: &[usize], n_groups: usize, q: &[Point]) -> DMatrix<f64> {
+        let p = &self.rest;
+        let mut s = DMatrix::zeros(3 * n_groups, 3);
+        for &(i, j, w) in &self.edges {
+            let m = w * (p[i] - p[j]) * (q[i] - q[j]).transpose();
+            for g in [groups[i], groups[j]] {
+                for a in 0..3 {
+                    for b in 0..3 {
+                        s[(3 * g + a, b)] += m[(a, b)];
+                    }
+                }
+            }
+        }
+        s
+    }
+}
+
 /// Reduced ARAP with E_diff (or handle constraints), precomputed for one
 /// (mesh, weights, groups) and solved for many targets.
 #[derive(Clone, Debug)]
 pub struct ReducedArap {
     opts: ArapOptions,
-    rest: Vec<Point>,
+    mesh: Arc<ArapMesh>,
     groups: Vec<usize>,
     n_groups: usize,
-    /// Undirected edges with clamped cotangent weights `w̃ > 0`.
-    edges: Vec<(usize, usize, f64)>,
-    lbs: LbsMatrix,
-    /// Sparse C (3|G| × n): `S = C Q`.
-    cov: SparseMatrix,
-    /// `C K` (3|G| × 4n_h).
+    /// `Kᵀ` (4n_h × n) of the LBS operator `K` ([`crate::skin::LbsMatrix`]).
+    kt: DMatrix<f64>,
+    /// `C K` (3|G| × 4n_h): `S = (CK) T`.
     ck: DMatrix<f64>,
-    /// `λ Kᵀ L̃ K` (4n_h × 4n_h).
+    /// `λ Kᵀ L̃ K` (handle constraints) or empty (E_diff: see `a`).
     arap_quad: DMatrix<f64>,
-    /// `Kᵀ K` (E_diff) or empty (handle constraints).
-    ktk: DMatrix<f64>,
+    /// `A = λ Kᵀ L̃ K + Kᵀ K` (or `+ μ K_hᵀ K_h`).
+    a: DMatrix<f64>,
     /// Rows of `K` at the handles (handle constraints) or empty (E_diff).
     kh: DMatrix<f64>,
-    /// Cholesky factor of `A = λ Kᵀ L̃ K + Kᵀ K` (or `+ μ K_hᵀ K_h`).
+    /// Cholesky factor of `A`.
     chol: Cholesky<f64, Dyn>,
     /// `A⁻¹ (CK)ᵀ` (4n_h × 3|G|).
     h: DMatrix<f64>,
-    /// `tr(Pᵀ L̃ P)`: the constant of E_arap.
-    rest_term: f64,
     /// Handle vertices (FAST mode only).
     handles: Vec<usize>,
 }
@@ -112,6 +283,18 @@ impl ReducedArap {
     /// for the z coordinate of every handle).
     pub fn new(
         mesh: &Mesh,
+        weights: &DMatrix<f64>,
+        groups: &[usize],
+        opts: ArapOptions,
+    ) -> Result<Self> {
+        Self::with_mesh(&Arc::new(ArapMesh::new(mesh)), weights, groups, opts)
+    }
+
+    /// [`ReducedArap::new`] with the mesh-only part precomputed. Cost:
+    /// O(n · n_h²) (two dense products of n × 4n_h matrices) plus
+    /// O(edges · n_h) for `CK`.
+    pub fn with_mesh(
+        mesh: &Arc<ArapMesh>,
         weights: &DMatrix<f64>,
         groups: &[usize],
         opts: ArapOptions,
@@ -144,50 +327,23 @@ impl ReducedArap {
         }
         let n_groups = if n == 0 { 0 } else { max_label + 1 };
         let nh = weights.ncols();
-        let rest = mesh.vertices().to_vec();
-        let lbs = LbsMatrix::new(&rest, weights)?;
-        let k = lbs.matrix();
-
-        let edges: Vec<(usize, usize, f64)> = cotan_weights(mesh)
-            .into_iter()
-            .filter(|&(_, w)| w > 0.0)
-            .map(|((i, j), w)| (i, j, w))
-            .collect();
-
-        // Clamped Laplacian, C and tr(Pᵀ L̃ P).
-        let mut lap = Vec::with_capacity(4 * edges.len());
-        let mut cov = Vec::with_capacity(12 * edges.len());
-        let mut rest_term = 0.0;
-        for &(i, j, w) in &edges {
-            lap.extend_from_slice(&[(i, j, -w), (j, i, -w), (i, i, w), (j, j, w)]);
-            let e = rest[i] - rest[j];
-            rest_term += w * e.norm_squared();
-            // Spoke i→j in group g(i) and spoke j→i in group g(j) both add
-            // w e^p_ij (δ_i − δ_j)ᵀ to their group's rows of C.
-            for g in [groups[i], groups[j]] {
-                for a in 0..3 {
-                    cov.push((3 * g + a, i, w * e[a]));
-                    cov.push((3 * g + a, j, -w * e[a]));
-                }
-            }
-        }
-        let lap = sparse_from_triplets(n, n, lap);
-        let cov = sparse_from_triplets(3 * n_groups, n, cov);
-        let ck: DMatrix<f64> = &cov * k;
-
-        let lk: DMatrix<f64> = &lap * k;
-        let arap_quad = k.tr_mul(&lk) * opts.lambda;
-        let arap_quad = (&arap_quad + arap_quad.transpose()) * 0.5;
-        let (handles, ktk, kh, data_quad) = if opts.use_ediff {
-            let ktk = k.tr_mul(k);
-            (Vec::new(), ktk.clone(), DMatrix::zeros(0, 0), ktk)
+        let rest = &mesh.rest;
+        let kt = lbs_operator_transposed(rest, weights)?;
+        let ckt = mesh.covariance_operator_t(groups, n_groups, &kt);
+        let sym = |m: DMatrix<f64>| (&m + m.transpose()) * 0.5;
+        let (handles, kh, arap_quad, a) = if opts.use_ediff {
+            // A = Kᵀ (λ L̃ K + K) in one product.
+            let mt = mesh.apply_laplacian_t(&kt, opts.lambda, 1.0);
+            let a = sym(mul_tr(&kt, &mt));
+            (Vec::new(), DMatrix::zeros(0, 0), DMatrix::zeros(0, 0), a)
         } else {
             let handles = resolve_handles(weights, &opts.handles)?;
-            let kh = k.select_rows(&handles);
-            let d = kh.tr_mul(&kh) * opts.handle_weight;
-            (handles, DMatrix::zeros(0, 0), kh, d)
+            let kh = kt.select_columns(&handles).transpose();
+            let mt = mesh.apply_laplacian_t(&kt, opts.lambda, 0.0);
+            let arap_quad = sym(mul_tr(&kt, &mt));
+            let a = &arap_quad + kh.tr_mul(&kh) * opts.handle_weight;
+            (handles, kh, arap_quad, a)
         };
-        let a = &arap_quad + data_quad;
         let chol = Cholesky::new(a.clone()).ok_or_else(|| {
             Error::numerical(format!(
                 "the reduced ARAP system ({0} × {0}) is not positive definite: the skinning \
@@ -201,34 +357,32 @@ impl ReducedArap {
                 }
             ))
         })?;
-        let h = chol.solve(&ck.transpose());
+        let h = chol.solve(&ckt);
+        let ck = ckt.transpose();
         Ok(ReducedArap {
             opts,
-            rest,
+            mesh: Arc::clone(mesh),
             groups: groups.to_vec(),
             n_groups,
-            edges,
-            lbs,
-            cov,
+            kt,
             ck,
             arap_quad,
-            ktk,
+            a,
             kh,
             chol,
             h,
-            rest_term,
             handles,
         })
     }
 
     /// Number of vertices.
     pub fn n_vertices(&self) -> usize {
-        self.rest.len()
+        self.mesh.rest.len()
     }
 
     /// Number of handles n_h.
     pub fn n_handles(&self) -> usize {
-        self.lbs.n_handles()
+        self.kt.nrows() / 4
     }
 
     /// Number of rotation groups |G|.
@@ -246,20 +400,20 @@ impl ReducedArap {
         &self.handles
     }
 
-    /// The LBS operator `K`.
-    pub fn lbs(&self) -> &LbsMatrix {
-        &self.lbs
+    /// `Kᵀ` (4n_h × n), the transposed LBS operator of the weights.
+    pub fn lbs_transposed(&self) -> &DMatrix<f64> {
+        &self.kt
     }
 
     /// The data term for a target (E_diff: O(n · n_h); handles: O(n_h²)).
     fn data_term(&self, target: &[Point]) -> Result<DataTerm> {
-        check_points(target, self.rest.len(), "target")?;
-        let lambda_rest = self.opts.lambda * self.rest_term;
+        check_points(target, self.mesh.rest.len(), "target")?;
+        let lambda_rest = self.opts.lambda * self.mesh.rest_term;
         if self.opts.use_ediff {
             let qp = points_to_matrix(target);
             let d0 = qp.norm_squared();
             Ok(DataTerm {
-                rhs: self.lbs.matrix().tr_mul(&qp),
+                rhs: &self.kt * &qp,
                 d0,
                 xh: DMatrix::zeros(0, 0),
                 scale: d0 + lambda_rest,
@@ -309,13 +463,15 @@ impl ReducedArap {
                 (r * sg).trace()
             })
             .sum();
-        let arap = (&self.arap_quad * t).dot(t) + self.opts.lambda * (self.rest_term - tr_rs);
-        let fit = if self.opts.use_ediff {
-            (&self.ktk * t).dot(t) - 2.0 * data.rhs.dot(t) + data.d0
+        let rot_term = self.opts.lambda * (self.mesh.rest_term - tr_rs);
+        if self.opts.use_ediff {
+            // tᵀ (λ KᵀL̃K + KᵀK) t − 2⟨KᵀQ′, T⟩ + ‖Q′‖² + λ (tr(PᵀL̃P) − tr(R S)).
+            (&self.a * t).dot(t) - 2.0 * data.rhs.dot(t) + data.d0 + rot_term
         } else {
-            self.opts.handle_weight * (&self.kh * t - &data.xh).norm_squared()
-        };
-        arap + fit
+            (&self.arap_quad * t).dot(t)
+                + rot_term
+                + self.opts.handle_weight * (&self.kh * t - &data.xh).norm_squared()
+        }
     }
 
     /// Local/global iterations for one target (A′ positions, one per
@@ -339,7 +495,7 @@ impl ReducedArap {
                 rots
             }
             None if self.opts.use_ediff => {
-                let s: DMatrix<f64> = &self.cov * points_to_matrix(target);
+                let s = self.mesh.covariances(&self.groups, self.n_groups, target);
                 self.fit_rotations(&s)?
             }
             None => vec![Mat3::identity(); self.n_groups],
@@ -372,7 +528,7 @@ impl ReducedArap {
                 break;
             }
         }
-        let positions = points_from_matrix(&self.lbs.apply_stacked(&t)?);
+        let positions = points_from_matrix(&tr_mul(&self.kt, &t));
         Ok(ArapSolution {
             transforms: transforms_from_stacked(&t)?,
             stacked: t,
@@ -404,18 +560,18 @@ impl ReducedArap {
     /// matrices (for tests and diagnostics); O(n · n_h).
     pub fn energy(&self, t_stacked: &DMatrix<f64>, target: &[Point]) -> Result<f64> {
         self.check_stacked(t_stacked)?;
-        check_points(target, self.rest.len(), "target")?;
-        let q = points_from_matrix(&self.lbs.apply_stacked(t_stacked)?);
-        let p = &self.rest;
+        check_points(target, self.mesh.rest.len(), "target")?;
+        let q = points_from_matrix(&tr_mul(&self.kt, t_stacked));
+        let p = &self.mesh.rest;
         let mut s = vec![Mat3::zeros(); self.n_groups];
-        for &(i, j, w) in &self.edges {
+        for &(i, j, w) in &self.mesh.edges {
             let m = w * (p[i] - p[j]) * (q[i] - q[j]).transpose();
             s[self.groups[i]] += m;
             s[self.groups[j]] += m;
         }
         let rots: Vec<Mat3> = s.iter().map(best_rotation).collect::<Result<_>>()?;
         let mut arap = 0.0;
-        for &(i, j, w) in &self.edges {
+        for &(i, j, w) in &self.mesh.edges {
             let (ep, eq) = (p[i] - p[j], q[i] - q[j]);
             let ri = (eq - rots[self.groups[i]] * ep).norm_squared();
             let rj = (eq - rots[self.groups[j]] * ep).norm_squared();

@@ -136,6 +136,26 @@ pub fn points_from_matrix(q: &DMatrix<f64>) -> Vec<Point> {
         .collect()
 }
 
+/// `Kᵀ` (4n_h × n) of the LBS operator built directly: column `i` holds
+/// `W_ik [p_i; 1]` for every handle `k` (contiguous per vertex, the layout
+/// the reduced ARAP precomputation works in). Errors on mismatched sizes.
+pub fn lbs_operator_transposed(rest: &[Point], weights: &DMatrix<f64>) -> Result<DMatrix<f64>> {
+    check_shapes(rest.len(), weights, weights.ncols())?;
+    let (n, nh) = weights.shape();
+    let mut kt = DMatrix::zeros(4 * nh, n);
+    for (i, col) in kt.as_mut_slice().chunks_exact_mut(4 * nh).enumerate() {
+        let p = rest[i];
+        for h in 0..nh {
+            let w = weights[(i, h)];
+            col[4 * h] = w * p.x;
+            col[4 * h + 1] = w * p.y;
+            col[4 * h + 2] = w * p.z;
+            col[4 * h + 3] = w;
+        }
+    }
+    Ok(kt)
+}
+
 /// Points → n × 3 matrix.
 pub fn points_to_matrix(p: &[Point]) -> DMatrix<f64> {
     DMatrix::from_fn(p.len(), 3, |i, d| p[i][d])

@@ -7,6 +7,7 @@
 //! conversion to faer's own types happens only inside this module.
 
 pub mod cholesky;
+pub mod dense;
 pub mod eigen;
 pub mod kmeans;
 pub mod qp;

@@ -69,7 +69,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-use crate::arap::{ArapOptions, ReducedArap};
+use std::sync::Arc;
+
+use crate::arap::{ArapMesh, ArapOptions, ReducedArap};
 use crate::mesh::Mesh;
 use crate::ops::{
     farthest_point_sampling, normalize_to_unit_sphere, FpsMetric, NormalizeReference, Similarity,
@@ -228,8 +230,11 @@ pub struct KeypointSelection {
     pub normalization: Similarity,
     /// Wall-clock seconds.
     pub seconds: f64,
-    /// Trial sets evaluated (one evaluation = all m sources).
+    /// Trial sets evaluated (one evaluation = all m sources; the final
+    /// fit included).
     pub evaluations: usize,
+    /// Trial sets met again and answered from the memo (not evaluated).
+    pub repeated_trials: usize,
     /// Trials whose solver failed numerically (counted as `+∞`).
     pub failed_evaluations: usize,
 }
@@ -285,7 +290,9 @@ pub fn select_keypoints(
         ctx: &ctx,
         fast: fast.as_ref(),
         evaluations: 0,
+        cached: 0,
         failed: 0,
+        memo: Default::default(),
     };
     let max_k = opts.max_keypoints.min(candidates.len());
 
@@ -358,6 +365,7 @@ pub fn select_keypoints(
 
     let fit = ctx.fit(&set, fast.as_ref())?;
     let (evaluations, failed_evaluations) = (sel.evaluations + 1, sel.failed);
+    let repeated_trials = sel.cached;
     Ok(KeypointSelection {
         keypoints: set,
         candidates,
@@ -367,6 +375,7 @@ pub fn select_keypoints(
         normalization: ctx.sim,
         seconds: start.elapsed().as_secs_f64(),
         evaluations,
+        repeated_trials,
         failed_evaluations,
     })
 }
@@ -449,6 +458,8 @@ struct Context<'a> {
     opts: &'a KeypointOptions,
     sim: Similarity,
     rest: Mesh,
+    /// Mesh-only ARAP precomputation shared by all trials.
+    arap_mesh: Arc<ArapMesh>,
     targets: Vec<Vec<Point>>,
     bih: Biharmonic,
     /// `[γ logr~, γ s~]` (n × 12m) or empty for [`GroupFeatures::Weights`].
@@ -489,6 +500,7 @@ impl<'a> Context<'a> {
         Ok(Context {
             opts,
             sim,
+            arap_mesh: Arc::new(ArapMesh::new(&rest)),
             rest,
             targets: normed.into_iter().map(|m| m.vertices().to_vec()).collect(),
             bih,
@@ -526,28 +538,16 @@ impl<'a> Context<'a> {
         if d == 0 {
             return Err(Error::invalid("rotation groups have no features"));
         }
+        let x = DMatrix::from_fn(n, d, row);
         if fast && !self.sample.is_empty() && k <= self.sample.len() {
-            let x = DMatrix::from_fn(self.sample.len(), d, |r, c| row(self.sample[r], c));
-            let km = kmeans_with(&x, k, self.opts.seed, &self.opts.fast.kmeans)?;
-            let centers = &km.centers;
-            Ok((0..n)
-                .map(|i| {
-                    let mut best = (0, f64::INFINITY);
-                    for g in 0..centers.nrows() {
-                        let mut s = 0.0;
-                        for c in 0..d {
-                            let t = row(i, c) - centers[(g, c)];
-                            s += t * t;
-                        }
-                        if s < best.1 {
-                            best = (g, s);
-                        }
-                    }
-                    best.0
-                })
-                .collect())
+            let km = kmeans_with(
+                &x.select_rows(&self.sample),
+                k,
+                self.opts.seed,
+                &self.opts.fast.kmeans,
+            )?;
+            Ok(nearest_centers(&x, &km.centers))
         } else {
-            let x = DMatrix::from_fn(n, d, row);
             Ok(kmeans_with(&x, k, self.opts.seed, &GROUP_KMEANS)?.labels)
         }
     }
@@ -566,7 +566,7 @@ impl<'a> Context<'a> {
         if fast.is_some() {
             arap_opts.max_iter = arap_opts.max_iter.min(self.opts.fast.arap_max_iter.max(1));
         }
-        let arap = ReducedArap::new(&self.rest, &w, &groups, arap_opts)?;
+        let arap = ReducedArap::with_mesh(&self.arap_mesh, &w, &groups, arap_opts)?;
         let n = self.n() as f64;
         let m = self.targets.len() as f64;
         let mut sum = 0.0;
@@ -642,6 +642,25 @@ pub fn to_original_frame(t: &Affine, sim: &Similarity) -> Affine {
     out
 }
 
+/// Index of the nearest centre (rows of `centers`) of every row of `x`,
+/// lowest index on ties, from `‖c‖² − 2 x·c` (one dense product).
+fn nearest_centers(x: &DMatrix<f64>, centers: &DMatrix<f64>) -> Vec<usize> {
+    let xc = x * centers.transpose();
+    let c2: Vec<f64> = centers.row_iter().map(|c| c.norm_squared()).collect();
+    (0..x.nrows())
+        .map(|i| {
+            let mut best = (0, f64::INFINITY);
+            for (g, &cg) in c2.iter().enumerate() {
+                let s = cg - 2.0 * xc[(i, g)];
+                if s < best.1 {
+                    best = (g, s);
+                }
+            }
+            best.0
+        })
+        .collect()
+}
+
 /// `k` distinct indices of `0..n`, seeded (partial Fisher–Yates), sorted.
 fn seeded_subsample(n: usize, k: usize, seed: u64) -> Vec<usize> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6b65_7970_6f69_6e74);
@@ -656,34 +675,51 @@ fn seeded_subsample(n: usize, k: usize, seed: u64) -> Vec<usize> {
 }
 
 /// Evaluates trial sets in parallel and reduces deterministically.
+///
+/// Errors are memoised by the *ordered* trial set (and the mode): a trial
+/// is a deterministic function of that vector, so a repeated trial (stage 2
+/// revisiting a position whose set has not changed since, or the last
+/// stage-1 step's sets met again as replacements of the last key point)
+/// returns the identical value without being recomputed.
 struct Selector<'c, 'a> {
     ctx: &'c Context<'a>,
     fast: Option<&'c GreenBasis>,
     evaluations: usize,
+    cached: usize,
     failed: usize,
+    memo: std::collections::HashMap<(bool, Vec<usize>), f64>,
 }
 
 impl Selector<'_, '_> {
     /// Errors of the trials (in order; numerical failures → +∞).
     fn errors(&mut self, trials: &[Vec<usize>], fast: Option<&GreenBasis>) -> Result<Vec<f64>> {
         let ctx = self.ctx;
-        let results: Vec<Result<f64>> = trials
+        let is_fast = fast.is_some();
+        let todo: Vec<&Vec<usize>> = trials
+            .iter()
+            .filter(|s| !self.memo.contains_key(&(is_fast, s.to_vec())))
+            .collect();
+        let results: Vec<Result<f64>> = todo
             .par_iter()
             .map(|s| ctx.evaluate(s, fast, false).map(|e| e.error))
             .collect();
-        self.evaluations += trials.len();
-        let mut out = Vec::with_capacity(results.len());
-        for r in results {
-            match r {
-                Ok(e) => out.push(e),
+        self.evaluations += todo.len();
+        self.cached += trials.len() - todo.len();
+        for (s, r) in todo.into_iter().zip(results) {
+            let e = match r {
+                Ok(e) => e,
                 Err(Error::Numerical(_)) => {
                     self.failed += 1;
-                    out.push(f64::INFINITY);
+                    f64::INFINITY
                 }
                 Err(e) => return Err(e),
-            }
+            };
+            self.memo.insert((is_fast, s.clone()), e);
         }
-        Ok(out)
+        Ok(trials
+            .iter()
+            .map(|s| self.memo[&(is_fast, s.clone())])
+            .collect())
     }
 
     /// Index and error of the best trial (lowest index on ties).
