@@ -138,7 +138,7 @@ fn gen_keypoints_transfer_end_to_end() {
     ok(&out);
     assert!(r_dir.join("tr_reg_002_to_tr_reg_010.ply").is_file());
 
-    // Correspondence markers: key points are snapped to marker vertices.
+    // Correspondence markers: candidates (hence key points) are marker vertices.
     let markers = dir.path().join("markers.csv");
     let pairs: String = (0..target.n_vertices())
         .step_by(97)

@@ -3,9 +3,11 @@
 
 use deformlab::data::synthetic::FaustStyle;
 use deformlab::ops::FpsMetric;
+use deformlab::ops::{normalize_to_unit_sphere, NormalizeReference};
 use deformlab::skin::bbw::{BbwOptions, Biharmonic, WeightMode};
 use deformlab::transfer::keypoints::{
-    fit_keypoints, select_keypoints, FastBounds, GreenBasis, KeypointOptions, SelectionMode,
+    fit_keypoints, select_keypoints, ErrorNorm, FastBounds, GreenBasis, KeypointOptions,
+    SelectionMode,
 };
 use deformlab::{Mesh, Point};
 
@@ -161,11 +163,12 @@ fn same_keypoints_with_one_and_two_threads() {
 #[test]
 fn m_equals_one_and_paper_threshold() {
     let (a, d) = data();
-    // Paper defaults except the candidate count: Ê uses 1/(m n) with the
-    // Frobenius norm, so ε = 0.03 is met at once on ~1.7k vertices.
+    // Eq. 22 read literally: Ê uses 1/(m n) with the Frobenius norm, so
+    // ε = 0.03 is met at once on ~1.7k vertices.
     let opts = KeypointOptions {
         n_candidates: 10,
         mode: SelectionMode::Fast,
+        error_norm: ErrorNorm::Paper,
         ..Default::default()
     };
     let sel = select_keypoints(&a, &d[..1], &opts).unwrap();
@@ -254,5 +257,51 @@ fn fit_without_ediff_is_handle_constrained_fast() {
         "E_diff {} vs handle-only {}",
         with.error,
         without.error
+    );
+}
+
+#[test]
+fn error_norms_match_the_fitted_positions() {
+    // The three error summaries, recomputed from the fit's positions (in
+    // A's original frame) and the unit-sphere scale of A ∪ A′.
+    let (a, d) = data();
+    let mut all = vec![a.clone()];
+    all.extend(d.iter().cloned());
+    let (sim, _) = normalize_to_unit_sphere(&all, NormalizeReference::Union).unwrap();
+    let keypoints = [10, 400, 900];
+    let n = a.n_vertices() as f64;
+    let m = d.len() as f64;
+    for norm in [ErrorNorm::MeanDistance, ErrorNorm::Paper, ErrorNorm::Rms] {
+        let opts = KeypointOptions {
+            mode: SelectionMode::Fast,
+            error_norm: norm,
+            ..Default::default()
+        };
+        let fit = fit_keypoints(&a, &d, &keypoints, &opts).unwrap();
+        let mut expected = 0.0;
+        for (q, target) in fit.positions.iter().zip(&d) {
+            let dist: Vec<f64> = q
+                .iter()
+                .zip(target.vertices())
+                .map(|(p, t)| (p - t).norm() * sim.scale)
+                .collect();
+            let sq: f64 = dist.iter().map(|x| x * x).sum();
+            expected += match norm {
+                ErrorNorm::MeanDistance => dist.iter().sum::<f64>() / n,
+                ErrorNorm::Paper => sq.sqrt() / n,
+                ErrorNorm::Rms => (sq / n).sqrt(),
+            };
+        }
+        expected /= m;
+        assert!(
+            (fit.error - expected).abs() <= 1e-9 * expected,
+            "{norm:?}: {} vs {expected}",
+            fit.error
+        );
+    }
+    // The default is the size-independent mean distance.
+    assert_eq!(
+        KeypointOptions::default().error_norm,
+        ErrorNorm::MeanDistance
     );
 }

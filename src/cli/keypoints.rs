@@ -43,7 +43,9 @@ impl ModeArg {
 /// Error measure of the selection on the command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum NormArg {
-    /// BDT Eq. 22: 1/(m n) Σ_j ‖D_S(A) − A′_j‖_F (tiny on large meshes).
+    /// Mean per-vertex Euclidean distance (the default; size-independent).
+    Mean,
+    /// BDT Eq. 22 literally: 1/(m n) Σ_j ‖D_S(A) − A′_j‖_F (tiny on large meshes).
     Paper,
     /// Root-mean-square vertex distance, averaged over the sources.
     Rms,
@@ -75,7 +77,7 @@ pub struct SelectArgs {
     #[arg(long, value_enum, default_value_t = ModeArg::Fast)]
     pub mode: ModeArg,
     /// Error compared with ε.
-    #[arg(long, value_enum, default_value_t = NormArg::Paper)]
+    #[arg(long, value_enum, default_value_t = NormArg::Mean)]
     pub error_norm: NormArg,
 }
 
@@ -88,6 +90,7 @@ impl SelectArgs {
             epsilon: self.epsilon,
             mode: self.mode.mode(),
             error_norm: match self.error_norm {
+                NormArg::Mean => ErrorNorm::MeanDistance,
                 NormArg::Paper => ErrorNorm::Paper,
                 NormArg::Rms => ErrorNorm::Rms,
             },

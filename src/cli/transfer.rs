@@ -8,12 +8,11 @@
 //!   it with `--keypoints FILE` so the count is known in advance);
 //! * `--correspondence FILE`: a sparse marker set (source vertex → target
 //!   vertex, e.g. user-clicked points, as in the paper). A key point must be
-//!   a source vertex of the file. Selected key points are **snapped to the
-//!   nearest marker** (Euclidean distance on A; a marker is used once, a key
-//!   point whose nearest marker is taken gets the next nearest free one), and
-//!   the transforms are re-fitted for the snapped set; the snapping is
-//!   printed and logged. Key points given with `--keypoints` are not snapped:
-//!   one that is not in the file is an error.
+//!   a source vertex of the file, so the selection's candidates are drawn
+//!   from the file's source vertices only
+//!   ([`deformlab::transfer::KeypointOptions::candidate_pool`]: FPS inside
+//!   the pool, `n_c` capped at its size). Key points given with
+//!   `--keypoints` must be in the file too (else an error).
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -63,8 +62,8 @@ pub enum FormatArg {
     Writes DIR/<deformed>_to_<target>.ply (one per deformed source), DIR/keypoints.csv\n\
     (source vertex, target vertex, x y z on A, x y z on B) and DIR/log.json (settings, selection\n\
     error trace, timings). Existing files are not overwritten unless --force is given.\n\
-    With --correspondence, selected key points are snapped to the nearest source vertex of the\n\
-    file and the transforms re-fitted. A --keypoints file with a `target` column needs no other\n\
+    With --correspondence, candidate key points are drawn from the file's source vertices only.\n\
+    A --keypoints file with a `target` column needs no other\n\
     target option.")]
 pub struct TransferArgs {
     #[command(flatten)]
@@ -145,17 +144,19 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
 
     let (source, deformed) = a.select.load()?;
     let target = read_mesh(&a.target)?;
-    let opts = a.select.options();
+    let mut opts = a.select.options();
 
     let given = match &a.keypoints {
         Some(p) => Some((p.clone(), read_keypoints_csv(p)?)),
         None => None,
     };
     let map = target_map(&a, &source, &target, given.as_ref())?;
+    if let TargetMap::Markers { sources, .. } = &map {
+        opts.candidate_pool = sources.clone();
+    }
 
     // Source key points and their transforms.
     let log_sel: Value;
-    let mut snapped_log = Value::Null;
     let (source_kp, transforms, fit_error): (Vec<usize>, Vec<Vec<Affine>>, f64) = match &given {
         Some((path, rows)) => {
             let kp: Vec<usize> = rows.iter().map(|r| r.source).collect();
@@ -187,29 +188,7 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
             let sel = select_keypoints(&source, &deformed, &opts)?;
             print_selection(&sel);
             log_sel = selection_json(&sel);
-            match &map {
-                TargetMap::Markers { path, sources, .. } => {
-                    let snapped = snap_to_markers(&source, &sel.keypoints, sources);
-                    if snapped == sel.keypoints {
-                        println!("all key points are markers of {}", path.display());
-                        (sel.keypoints.clone(), sel.transforms.clone(), sel.error)
-                    } else {
-                        let t = Instant::now();
-                        let fit = fit_keypoints(&source, &deformed, &snapped, &opts)?;
-                        println!(
-                            "snapped to the nearest markers of {}: {:?}, re-fitted error {:.6} ({:.2} s)",
-                            path.display(),
-                            snapped,
-                            fit.error,
-                            t.elapsed().as_secs_f64()
-                        );
-                        snapped_log = json!({"keypoints": snapped, "error": fit.error,
-                            "seconds": t.elapsed().as_secs_f64()});
-                        (snapped, fit.transforms, fit.error)
-                    }
-                }
-                _ => (sel.keypoints.clone(), sel.transforms.clone(), sel.error),
-            }
+            (sel.keypoints.clone(), sel.transforms.clone(), sel.error)
         }
     };
 
@@ -290,13 +269,16 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
         "target_map": match &map {
             TargetMap::Same => "same-connectivity".to_string(),
             TargetMap::List(_) => "list".to_string(),
-            TargetMap::Markers { path, .. } => format!("correspondence {}", path.display()),
+            TargetMap::Markers { path, sources, .. } => format!(
+                "correspondence {} (candidates drawn from its {} source vertices)",
+                path.display(),
+                sources.len()
+            ),
             TargetMap::FromFile => "keypoints file".to_string(),
         },
         "frame": topts.frame.name(),
         "refine": a.refine,
         "selection": log_sel,
-        "snapped": snapped_log,
         "fit_error": fit_error,
         "source_keypoints": source_kp,
         "target_keypoints": target_kp,
@@ -409,30 +391,4 @@ fn target_map(
             "no target key points: pass --same-connectivity, --target-keypoints or --correspondence",
         )),
     }
-}
-
-/// Each key point → the nearest marker source vertex (Euclidean on A) not
-/// yet used by an earlier key point (key point order). Returns at most as
-/// many key points as there are markers.
-fn snap_to_markers(source: &Mesh, keypoints: &[usize], markers: &[usize]) -> Vec<usize> {
-    let v = source.vertices();
-    let mut used = vec![false; markers.len()];
-    let mut out = Vec::with_capacity(keypoints.len());
-    for &k in keypoints {
-        let best = markers
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| !used[*i])
-            .min_by(|(_, &x), (_, &y)| {
-                (v[x] - v[k])
-                    .norm_squared()
-                    .total_cmp(&(v[y] - v[k]).norm_squared())
-            })
-            .map(|(i, &m)| (i, m));
-        if let Some((i, m)) = best {
-            used[i] = true;
-            out.push(m);
-        }
-    }
-    out
 }

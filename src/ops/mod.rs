@@ -35,5 +35,7 @@ pub use normalize::{
 };
 pub use normals::{face_normals, vertex_area_normals, vertex_normals};
 pub use rotation::{polar_decomposition, rotation_exp, rotation_log, scale_shear_vector, Polar};
-pub use sampling::{farthest_point_sampling, farthest_point_sampling_from, FpsMetric};
+pub use sampling::{
+    farthest_point_sampling, farthest_point_sampling_from, farthest_point_sampling_in, FpsMetric,
+};
 pub use topology::{edges, face_areas, total_area};

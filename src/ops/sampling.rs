@@ -64,6 +64,59 @@ pub fn farthest_point_sampling_from(
             "cannot sample {k} distinct vertices from {n}"
         )));
     }
+    farthest_point_sampling_masked(mesh, k, metric, first, None)
+}
+
+/// Farthest point sampling among the vertices of `pool` only (distances
+/// still over the whole mesh): the first sample is `pool[i]` with `i`
+/// seeded, then repeatedly the pool vertex farthest from the samples.
+/// For restricting candidates to vertices with a known correspondence.
+/// Errors on an empty pool, a vertex out of range, a repeated vertex, or
+/// `k > pool.len()`.
+pub fn farthest_point_sampling_in(
+    mesh: &Mesh,
+    pool: &[usize],
+    k: usize,
+    metric: FpsMetric,
+    seed: u64,
+) -> Result<Vec<usize>> {
+    let n = mesh.n_vertices();
+    if pool.is_empty() {
+        return Err(Error::invalid("the candidate pool is empty"));
+    }
+    let mut allowed = vec![false; n];
+    for &v in pool {
+        if v >= n {
+            return Err(Error::invalid(format!(
+                "candidate pool vertex {v} out of range ({n} vertices)"
+            )));
+        }
+        if allowed[v] {
+            return Err(Error::invalid(format!(
+                "candidate pool vertex {v} is repeated"
+            )));
+        }
+        allowed[v] = true;
+    }
+    if k > pool.len() {
+        return Err(Error::invalid(format!(
+            "cannot sample {k} distinct vertices from a pool of {}",
+            pool.len()
+        )));
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let first = pool[rng.random_range(0..pool.len())];
+    farthest_point_sampling_masked(mesh, k, metric, first, Some(&allowed))
+}
+
+fn farthest_point_sampling_masked(
+    mesh: &Mesh,
+    k: usize,
+    metric: FpsMetric,
+    first: usize,
+    allowed: Option<&[bool]>,
+) -> Result<Vec<usize>> {
+    let n = mesh.n_vertices();
     let graph = match metric {
         FpsMetric::Geodesic => Some(EdgeGraph::new(mesh)),
         FpsMetric::Euclidean => None,
@@ -71,6 +124,11 @@ pub fn farthest_point_sampling_from(
     let v = mesh.vertices();
     let mut min_dist = vec![f64::INFINITY; n];
     let mut chosen = vec![false; n];
+    if let Some(a) = allowed {
+        for (c, &ok) in chosen.iter_mut().zip(a) {
+            *c = !ok;
+        }
+    }
     let mut out = Vec::with_capacity(k);
     let mut next = first;
     while out.len() < k {
@@ -113,6 +171,39 @@ mod tests {
         let s = farthest_point_sampling_from(&g, 4, FpsMetric::Euclidean, 0).unwrap();
         assert_eq!(s, vec![0, 24, 4, 20]);
         let s = farthest_point_sampling_from(&g, 2, FpsMetric::Geodesic, 0).unwrap();
+        assert_eq!(s, vec![0, 24]);
+    }
+
+    #[test]
+    fn pool_restricts_samples() {
+        let g = grid(4, 4);
+        let pool = [6, 7, 8, 12, 24, 0];
+        let s = farthest_point_sampling_in(&g, &pool, 3, FpsMetric::Euclidean, 3).unwrap();
+        assert!(s.iter().all(|v| pool.contains(v)));
+        // After the first, the farthest pool vertices; the whole pool when k = |pool|.
+        let all = farthest_point_sampling_in(&g, &pool, 6, FpsMetric::Geodesic, 3).unwrap();
+        let mut sorted = all.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, vec![0, 6, 7, 8, 12, 24]);
+        assert!(farthest_point_sampling_in(&g, &pool, 7, FpsMetric::Euclidean, 3).is_err());
+        assert!(farthest_point_sampling_in(&g, &[], 1, FpsMetric::Euclidean, 3).is_err());
+        assert!(farthest_point_sampling_in(&g, &[3, 3], 1, FpsMetric::Euclidean, 3).is_err());
+        assert!(farthest_point_sampling_in(&g, &[99], 1, FpsMetric::Euclidean, 3).is_err());
+        // From corner 0 the farthest of {0, 12, 24} is 24.
+        let s = farthest_point_sampling_masked(
+            &g,
+            2,
+            FpsMetric::Euclidean,
+            0,
+            Some(&{
+                let mut a = vec![false; 25];
+                for v in [0, 12, 24] {
+                    a[v] = true;
+                }
+                a
+            }),
+        )
+        .unwrap();
         assert_eq!(s, vec![0, 24]);
     }
 
