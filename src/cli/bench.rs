@@ -1,10 +1,23 @@
-//! `deformlab bench`: median timings of the numerical kernels.
+//! `deformlab bench`: median timings of the numerical kernels, of bounded
+//! biharmonic weights and of key point selection.
 
 use std::process::ExitCode;
 
-use deformlab::Result;
+use deformlab::{Error, Result};
 
-pub fn run(groups: &[String], quick: bool, threads: usize) -> Result<ExitCode> {
+/// Groups beyond the kernel groups of [`deformlab::bench::GROUPS`].
+const METHOD_GROUPS: [&str; 2] = ["bbw", "keypoints"];
+
+pub fn run(groups: &[String], quick: bool, threads: usize, exact_full: bool) -> Result<ExitCode> {
+    for g in groups {
+        if !deformlab::bench::GROUPS.contains(&g.as_str()) && !METHOD_GROUPS.contains(&g.as_str()) {
+            return Err(Error::invalid(format!(
+                "unknown benchmark group {g:?} (known: {}, {})",
+                deformlab::bench::GROUPS.join(", "),
+                METHOD_GROUPS.join(", ")
+            )));
+        }
+    }
     deformlab::solve::set_threads(threads);
     eprintln!(
         "benchmarking {} ({} mode, {} solver thread(s)); this takes {}",
@@ -15,9 +28,24 @@ pub fn run(groups: &[String], quick: bool, threads: usize) -> Result<ExitCode> {
         },
         if quick { "quick" } else { "full" },
         threads,
-        if quick { "seconds" } else { "several minutes" }
+        if quick { "a minute or two" } else { "tens of minutes" }
     );
-    let table = deformlab::bench::run(groups, quick)?;
-    print!("{table}");
+    let want = |g: &str| groups.is_empty() || groups.iter().any(|w| w == g);
+    let kernels: Vec<String> = groups
+        .iter()
+        .filter(|g| !METHOD_GROUPS.contains(&g.as_str()))
+        .cloned()
+        .collect();
+    if groups.is_empty() || !kernels.is_empty() {
+        print!("{}", deformlab::bench::run(&kernels, quick)?);
+    }
+    if want("bbw") {
+        println!("\n## Bounded biharmonic weights and LBS\n");
+        print!("{}", deformlab::bench_skin::run(quick)?);
+    }
+    if want("keypoints") {
+        println!("\n## Key point selection\n");
+        print!("{}", deformlab::bench_bdt::run(quick, exact_full)?);
+    }
     Ok(ExitCode::SUCCESS)
 }

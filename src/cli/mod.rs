@@ -56,14 +56,21 @@ pub enum Command {
         #[arg(long)]
         force: bool,
     },
-    /// Print median timings of the numerical kernels (Markdown table).
+    /// Print median timings (Markdown tables): numerical kernels, bounded
+    /// biharmonic weights, key point selection.
     #[command(
         after_help = "Groups: ops (cotan Laplacian + mass), cholesky (factorise + 3 solves of L+εM),\n\
         biharmonic (the same for L M⁻¹ L + εM), eigen (20 LBO eigenpairs), nalgebra\n\
-        (nalgebra-sparse's Cholesky, for comparison). Sizes: 7.2k, 50k, 200k vertices.\n\n\
+        (nalgebra-sparse's Cholesky, for comparison) — sizes 7.2k, 50k, 200k vertices;\n\
+        bbw (weights for 10 handles on FAUST tr_reg_001, all modes, and LBS of 12 handles);\n\
+        keypoints (fast key point selection, n_c = 100, m = 1 and 3, exact-mode trials and\n\
+        extrapolation; --exact-full also runs the exact selections: hours).\n\
+        bbw and keypoints read ../shared/data (or DEFORMLAB_SHARED_DATA) and fall back to\n\
+        synthetic meshes.\n\n\
         Examples:\n  \
         deformlab bench --quick\n  \
         deformlab bench cholesky eigen\n  \
+        deformlab bench keypoints\n  \
         deformlab bench --threads 2 biharmonic"
     )]
     Bench {
@@ -75,6 +82,9 @@ pub enum Command {
         /// Solver threads (1 = sequential, the default; measured faster on 2 cores).
         #[arg(long, default_value_t = 1)]
         threads: usize,
+        /// keypoints: also run the exact-mode selections (hours at 6890 vertices).
+        #[arg(long)]
+        exact_full: bool,
     },
     /// Load meshes, print a defect table per file and a set summary.
     #[command(after_help = "Examples:\n  \
@@ -122,7 +132,8 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             groups,
             quick,
             threads,
-        } => bench::run(&groups, quick, threads),
+            exact_full,
+        } => bench::run(&groups, quick, threads, exact_full),
         Command::Keypoints(a) => keypoints::run(a),
         Command::Transfer(a) => transfer::run(*a),
     }
