@@ -232,7 +232,10 @@ pub fn run(quick: bool, full_exact: bool) -> Result<String> {
         );
     }
     if full_exact {
-        emit!(out, "\n| mode | m | key points | trials | final Ê | time (s), measured |");
+        emit!(
+            out,
+            "\n| mode | m | key points | trials | final Ê | time (s), measured |"
+        );
         emit!(out, "|---|---|---|---|---|---|");
         for &m in &ms {
             let opts = KeypointOptions {

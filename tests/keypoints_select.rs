@@ -305,3 +305,36 @@ fn error_norms_match_the_fitted_positions() {
         ErrorNorm::MeanDistance
     );
 }
+
+mod stage_two {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 4, ..ProptestConfig::default() })]
+
+        /// Stage 2 never increases the selection error, whatever the seed
+        /// (FPS start, k-means) and candidate count.
+        #[test]
+        fn swaps_never_increase_the_error(seed in 0u64..1000, n_c in 8usize..14) {
+            let (a, d) = data();
+            let opts = KeypointOptions {
+                n_candidates: n_c,
+                seed,
+                epsilon: 0.0,
+                max_keypoints: 3,
+                mode: SelectionMode::Fast,
+                max_swap_passes: 3,
+                ..Default::default()
+            };
+            let sel = select_keypoints(&a, &d[..1], &opts).unwrap();
+            let s1_end = sel.trace.iter().filter(|s| s.stage == 1).last().unwrap().error;
+            let mut prev = s1_end;
+            for s in sel.trace.iter().filter(|s| s.stage == 2) {
+                prop_assert!(s.error <= prev, "stage 2 increased {} → {}", prev, s.error);
+                prev = s.error;
+            }
+            prop_assert!(sel.error <= s1_end * (1.0 + 1e-12));
+        }
+    }
+}

@@ -28,7 +28,11 @@ pub fn run(groups: &[String], quick: bool, threads: usize, exact_full: bool) -> 
         },
         if quick { "quick" } else { "full" },
         threads,
-        if quick { "a minute or two" } else { "tens of minutes" }
+        if quick {
+            "a minute or two"
+        } else {
+            "tens of minutes"
+        }
     );
     let want = |g: &str| groups.is_empty() || groups.iter().any(|w| w == g);
     let kernels: Vec<String> = groups
