@@ -328,7 +328,7 @@ mod stage_two {
                 ..Default::default()
             };
             let sel = select_keypoints(&a, &d[..1], &opts).unwrap();
-            let s1_end = sel.trace.iter().filter(|s| s.stage == 1).last().unwrap().error;
+            let s1_end = sel.trace.iter().rfind(|s| s.stage == 1).unwrap().error;
             let mut prev = s1_end;
             for s in sel.trace.iter().filter(|s| s.stage == 2) {
                 prop_assert!(s.error <= prev, "stage 2 increased {} → {}", prev, s.error);
