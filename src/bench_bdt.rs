@@ -231,6 +231,7 @@ pub fn run(quick: bool, full_exact: bool) -> Result<String> {
             est / 3600.0
         );
     }
+    paper_sized(&mut out, quick)?;
     if full_exact {
         emit!(
             out,
@@ -256,6 +257,70 @@ pub fn run(quick: bool, full_exact: bool) -> Result<String> {
         }
     }
     Ok(out)
+}
+
+/// Exact and fast selections, both measured, on a synthetic subject of
+/// about 1.7k vertices (the paper's Table 1 meshes have 1–3k vertices):
+/// time, key points, and the error of each mode's key points under the
+/// exact (bounded-weight) fit.
+fn paper_sized(out: &mut String, quick: bool) -> Result<()> {
+    let set = FaustStyle {
+        subjects: 1,
+        poses: 4,
+        resolution: 1,
+        ..Default::default()
+    }
+    .generate()?;
+    let source = set.meshes[0][0].clone();
+    let deformed = set.meshes[0][1..].to_vec();
+    let n_c = if quick { 20 } else { 100 };
+    emit!(
+        out,
+        "\nPaper-sized mesh: synthetic subject 0 ({} vertices), poses 1..=3, n_c = {n_c}; both modes \
+         measured; Ê(exact fit) = the error of the mode's key points under the exact fit\n",
+        source.n_vertices()
+    );
+    emit!(
+        out,
+        "| mode | m | key points | trials | Ê (own fit) | Ê (exact fit) | time (s) |"
+    );
+    emit!(out, "|---|---|---|---|---|---|---|");
+    let ms: &[usize] = if quick { &[1] } else { &[1, 3] };
+    for &m in ms {
+        let exact_opts = KeypointOptions {
+            n_candidates: n_c,
+            mode: SelectionMode::Exact,
+            ..Default::default()
+        };
+        for mode in [SelectionMode::Fast, SelectionMode::Exact] {
+            let opts = KeypointOptions {
+                mode,
+                ..exact_opts.clone()
+            };
+            let t = Instant::now();
+            let sel = select_keypoints(&source, &deformed[..m], &opts)?;
+            let secs = t.elapsed().as_secs_f64();
+            let exact_err = match mode {
+                SelectionMode::Exact => sel.error,
+                SelectionMode::Fast => {
+                    fit_keypoints(&source, &deformed[..m], &sel.keypoints, &exact_opts)?.error
+                }
+            };
+            let mut kp = sel.keypoints.clone();
+            kp.sort_unstable();
+            emit!(
+                out,
+                "| {} | {m} | {kp:?} | {} | {:.4} | {exact_err:.4} | {secs:.1} |",
+                match mode {
+                    SelectionMode::Fast => "fast",
+                    SelectionMode::Exact => "exact",
+                },
+                sel.evaluations,
+                sel.error
+            );
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
