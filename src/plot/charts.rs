@@ -693,13 +693,16 @@ trait ChartDraw {
     ) -> DResult<Option<LegendPos>>;
 }
 
-fn render_chart<C: ChartDraw>(chart: &C, stem: &Path, size: (u32, u32)) -> Result<()> {
+/// Draws `chart` on a supersampled bitmap with automatic legend placement
+/// (redrawn with the legend outside if no corner is free) and box-filters
+/// it down to `size`. `name` is the file named in errors.
+fn bitmap<C: ChartDraw>(
+    chart: &C,
+    size: (u32, u32),
+    name: &str,
+) -> Result<(Image, Option<LegendPos>)> {
     ensure_font()?;
-    let png = with_suffix(stem, "png")?;
-    let svg = with_suffix(stem, "svg")?;
-    let fail = |path: &Path, msg: String| {
-        Error::invalid(format!("{}: drawing failed: {msg}", path.display()))
-    };
+    let fail = |msg: String| Error::invalid(format!("{name}: drawing failed: {msg}"));
     let (w, h) = (size.0 * SUPERSAMPLE, size.1 * SUPERSAMPLE);
     let m = Metrics {
         s: SUPERSAMPLE as f64,
@@ -707,35 +710,54 @@ fn render_chart<C: ChartDraw>(chart: &C, stem: &Path, size: (u32, u32)) -> Resul
     let mut buf = vec![255u8; (w * h * 3) as usize];
     let mut placement = {
         let root = GlyphBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-        let r = chart
-            .draw_bitmap(&root, None, m)
-            .map_err(|e| fail(&png, e))?;
-        root.present().map_err(|e| fail(&png, e.to_string()))?;
+        let r = chart.draw_bitmap(&root, None, m).map_err(fail)?;
+        root.present().map_err(|e| fail(e.to_string()))?;
         r
     };
     if placement.is_none() {
         let root = GlyphBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         placement = chart
             .draw_bitmap(&root, Some(LegendPos::Outside), m)
-            .map_err(|e| fail(&png, e))?;
-        root.present().map_err(|e| fail(&png, e.to_string()))?;
+            .map_err(fail)?;
+        root.present().map_err(|e| fail(e.to_string()))?;
     }
     let big = Image {
         width: w,
         height: h,
         rgb: buf,
     };
-    write_png_atomic(&png, &big.downsample(SUPERSAMPLE))?;
+    Ok((big.downsample(SUPERSAMPLE), placement))
+}
 
+/// Both renderings in memory first, then the PNG and the SVG files.
+fn render_chart<C: ChartDraw>(chart: &C, stem: &Path, size: (u32, u32)) -> Result<()> {
+    let png = with_suffix(stem, "png")?;
+    let svg = with_suffix(stem, "svg")?;
+    let (image, placement) = bitmap(chart, size, &png.display().to_string())?;
     let mut text = String::new();
     {
+        let fail =
+            |msg: String| Error::invalid(format!("{}: drawing failed: {msg}", svg.display()));
         let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
         chart
             .draw_svg(&root, placement, Metrics { s: 1.0 })
-            .map_err(|e| fail(&svg, e))?;
-        root.present().map_err(|e| fail(&svg, e.to_string()))?;
+            .map_err(fail)?;
+        root.present().map_err(|e| fail(e.to_string()))?;
     }
+    write_png_atomic(&png, &image)?;
     write_bytes_atomic(&svg, text.as_bytes())
+}
+
+/// The PNG rendering of a line chart ([`CHART_SIZE`]) without writing it.
+pub fn line_chart_image(chart: &LineChart) -> Result<Image> {
+    let prepared = prepare_line(chart, "line chart")?;
+    Ok(bitmap(&LineJob { chart, prepared }, CHART_SIZE, "line chart")?.0)
+}
+
+/// The PNG rendering of a bar chart ([`CHART_SIZE`]) without writing it.
+pub fn bar_chart_image(chart: &BarChart) -> Result<Image> {
+    let prepared = prepare_bar(chart, "bar chart")?;
+    Ok(bitmap(&BarJob { chart, prepared }, CHART_SIZE, "bar chart")?.0)
 }
 
 struct LineJob<'a> {
@@ -1210,4 +1232,56 @@ pub fn save_table(table: &super::Table, stem: &Path) -> Result<()> {
         stem,
         (width, height),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const M: Metrics = Metrics { s: 1.0 };
+    const PLOT: Rect = (100.0, 100.0, 1100.0, 700.0);
+    const SIZE: (f64, f64) = (200.0, 100.0);
+
+    #[test]
+    fn legend_avoids_data() {
+        assert_eq!(free_corner(PLOT, SIZE, &[], M), Some(Corner::TopRight));
+        // Data in the top right corner: the legend moves to the bottom right.
+        let tr = (1000.0, 120.0, 1010.0, 130.0);
+        assert_eq!(free_corner(PLOT, SIZE, &[tr], M), Some(Corner::BottomRight));
+        let br = (1000.0, 650.0, 1010.0, 660.0);
+        let tl = (150.0, 150.0, 160.0, 160.0);
+        assert_eq!(free_corner(PLOT, SIZE, &[tr, br], M), Some(Corner::TopLeft));
+        let bl = (150.0, 650.0, 160.0, 660.0);
+        assert_eq!(
+            free_corner(PLOT, SIZE, &[tr, br, tl], M),
+            Some(Corner::BottomLeft)
+        );
+        assert_eq!(free_corner(PLOT, SIZE, &[tr, br, tl, bl], M), None);
+        // The chosen rectangle really is clear of the obstacles.
+        let r = corner_rect(PLOT, SIZE, Corner::BottomRight, M);
+        assert!(!rects_overlap(r, tr));
+        // A legend too large for the plot goes outside.
+        assert_eq!(free_corner(PLOT, (900.0, 100.0), &[], M), None);
+    }
+
+    #[test]
+    fn clipping_keeps_the_inside_part() {
+        let x = Axis::linear(0.0, 1.0);
+        let y = Axis::linear(0.0, 1.0);
+        // Leaves through the top at x = 0.1 and comes back at x = 0.9.
+        let pts = [(0.0, 0.0), (0.5, 5.0), (1.0, 0.0)];
+        let pieces = clip_polyline(&pts, &x, &y);
+        assert_eq!(pieces.len(), 2);
+        assert!((pieces[0][1].0 - 0.1).abs() < 1e-12 && (pieces[0][1].1 - 1.0).abs() < 1e-12);
+        assert!((pieces[1][0].0 - 0.9).abs() < 1e-12);
+        // Entirely outside: nothing.
+        assert!(clip_polyline(&[(0.0, 2.0), (1.0, 3.0)], &x, &y).is_empty());
+        // Log axis clipping happens in log space: (1, 1e-3)–(2, 1e1) crosses
+        // y = 1 halfway in log10 y.
+        let ly = Axis::log(1e-3, 1.0);
+        let lx = Axis::linear(1.0, 2.0);
+        let p = clip_polyline(&[(1.0, 1e-3), (2.0, 10.0)], &lx, &ly);
+        assert_eq!(p.len(), 1);
+        assert!((p[0][1].0 - 1.75).abs() < 1e-9, "{:?}", p);
+    }
 }

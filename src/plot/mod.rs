@@ -31,7 +31,7 @@ use std::path::Path;
 
 use crate::{Mesh, Result};
 
-pub use charts::CHART_SIZE;
+pub use charts::{bar_chart_image, line_chart_image, CHART_SIZE};
 pub use demo::demo;
 pub use figure::{render_figure, save_figure_with, DEFAULT_PANEL_SIZE};
 pub use output::Image;
