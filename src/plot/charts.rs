@@ -913,19 +913,13 @@ fn draw_bar_chart<DB: DrawingBackend>(
         .margin_right(m.pu(24.0))
         .margin_bottom(m.pu(12.0))
         .margin_left(m.pu(10.0))
-        .x_label_area_size(m.pu(52.0))
+        .x_label_area_size(m.px(22.0 + 30.0 * category_lines(c) as f64) as u32)
         .y_label_area_size(yarea)
         .build_cartesian_2d(x, p.y)
         .map_err(de)?;
-    let cats = c.categories.clone();
-    let fx = move |v: &f64| {
-        let i = v.round();
-        if i >= 0.0 && (i as usize) < cats.len() {
-            cats[i as usize].clone()
-        } else {
-            String::new()
-        }
-    };
+    // Category names are drawn below the axis by `draw_categories` (word
+    // wrapped to the category width); the mesh only draws the ticks.
+    let fx = |_: &f64| String::new();
     let fy = tick_formatter(p.y, Y_TICKS);
     chart
         .configure_mesh()
@@ -956,6 +950,7 @@ fn draw_bar_chart<DB: DrawingBackend>(
         let v = v.clamp(p.y.lo, p.y.hi);
         to_px(&p.y, v, plot.3 - 1.0, plot.1)
     };
+    draw_categories(root, c, plot, m)?;
     let base = match p.y.scale {
         Scale::Log => p.y.lo,
         _ => 0.0f64.clamp(p.y.lo, p.y.hi),
@@ -1034,6 +1029,68 @@ fn draw_bar_chart<DB: DrawingBackend>(
         None => {}
     }
     Ok(chosen)
+}
+
+/// Greedy word wrap of `text` into lines at most `width` pixels wide at
+/// `size` (a single word wider than that stays on its own line).
+fn wrap(text: &str, size: f64, width: f64) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    let mut cur = String::new();
+    for word in text.split_whitespace() {
+        let trial = if cur.is_empty() {
+            word.to_string()
+        } else {
+            format!("{cur} {word}")
+        };
+        if cur.is_empty() || font::text_size(&trial, size, false).0 as f64 <= width {
+            cur = trial;
+        } else {
+            lines.push(std::mem::replace(&mut cur, word.to_string()));
+        }
+    }
+    if !cur.is_empty() || lines.is_empty() {
+        lines.push(cur);
+    }
+    lines
+}
+
+/// Category label font size and the width available to one label, at the
+/// reference size.
+const CATEGORY_PX: f64 = 22.0;
+
+fn category_width(c: &BarChart) -> f64 {
+    // The plot is roughly 1000 px wide at the reference size.
+    0.92 * 1000.0 / c.categories.len().max(1) as f64
+}
+
+/// Lines the longest wrapped category name needs (at most 3).
+fn category_lines(c: &BarChart) -> usize {
+    c.categories
+        .iter()
+        .map(|t| wrap(t, CATEGORY_PX, category_width(c)).len())
+        .max()
+        .unwrap_or(1)
+        .clamp(1, 3)
+}
+
+fn draw_categories<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    c: &BarChart,
+    plot: Rect,
+    m: Metrics,
+) -> DResult<()> {
+    let x = Axis::category(c.categories.len());
+    let style = m.desc().pos(Pos::new(HPos::Center, VPos::Top));
+    let width = category_width(c);
+    for (i, name) in c.categories.iter().enumerate() {
+        let cx = to_px(&x, i as f64, plot.0, plot.2 - 1.0);
+        for (k, line) in wrap(name, CATEGORY_PX, width).iter().take(3).enumerate() {
+            let y = plot.3 + m.px(12.0 + 28.0 * k as f64);
+            root.draw_text(line, &style, (cx.round() as i32, y.round() as i32))
+                .map_err(de)?;
+        }
+    }
+    Ok(())
 }
 
 struct BarJob<'a> {

@@ -5,8 +5,8 @@
 use std::path::{Path, PathBuf};
 
 use super::{
-    save_bar_chart, save_figure, save_line_chart, save_table, BarChart, Camera, Coloring, Figure,
-    LineChart, Panel, Series, Table,
+    save_bar_chart, save_figure, save_figure_with, save_line_chart, save_table, BarChart, Camera,
+    ColorMap, Coloring, Figure, LineChart, Panel, RenderOptions, Series, Table,
 };
 use crate::data::synthetic::FaustStyle;
 use crate::ops::{farthest_point_sampling, FpsMetric};
@@ -124,11 +124,16 @@ pub fn demo(dir: &Path) -> Result<Vec<PathBuf>> {
         title: "Timings".into(),
         caption: Some("per mesh, 2 cores (sample data)".into()),
         y_label: "time (s)".into(),
-        categories: vec!["FAUST".into(), "TOSCA cat".into(), "cactus".into()],
+        categories: vec![
+            "FAUST (6890 vertices)".into(),
+            "TOSCA cat (27894 vertices)".into(),
+            "TOSCA centaur (15768 vertices)".into(),
+            "cactus (5261 vertices)".into(),
+        ],
         series: vec![
-            ("key point selection".into(), vec![0.8, 3.5, 0.6]),
-            ("weights / handle".into(), vec![0.05, 0.21, 0.04]),
-            ("LBS".into(), vec![0.0009, 0.004, 0.0007]),
+            ("key point selection".into(), vec![0.8, 3.5, 2.0, 0.6]),
+            ("weights / handle".into(), vec![0.05, 0.21, 0.12, 0.04]),
+            ("LBS".into(), vec![0.0009, 0.004, 0.002, 0.0007]),
         ],
         errors: None,
         log_y: true,
@@ -241,7 +246,7 @@ pub fn demo(dir: &Path) -> Result<Vec<PathBuf>> {
             keypoints: keys.iter().enumerate().map(|(i, &v)| (v, i)).collect(),
         })
         .collect();
-    let fig = Figure {
+    let mut fig = Figure {
         title: "Synthetic FAUST-style subject".into(),
         caption: Some("colour: displacement from pose 0; spheres: 5 FPS key points".into()),
         panels,
@@ -250,6 +255,16 @@ pub fn demo(dir: &Path) -> Result<Vec<PathBuf>> {
     };
     let stem = dir.join("figure_synthetic");
     save_figure(&fig, &stem)?;
+    push(stem, &["png"]);
+    // The same with the light-to-dark red map and one scale for all panels.
+    fig.caption = Some("ColorMap::Reds, shared_scale: colour = displacement from pose 0".into());
+    let opts = RenderOptions {
+        colormap: ColorMap::Reds,
+        shared_scale: true,
+        ..Default::default()
+    };
+    let stem = dir.join("figure_synthetic_reds");
+    save_figure_with(&fig, &opts, &stem)?;
     push(stem, &["png"]);
 
     // FAUST scan, if the shared data is present.
@@ -293,6 +308,60 @@ pub fn demo(dir: &Path) -> Result<Vec<PathBuf>> {
             save_figure(&fig, &stem)?;
             push(stem, &["png"]);
         }
+    }
+    // The other shared data sets with their recommended cameras.
+    let sets: [(&str, &str, &[&str], Camera); 3] = [
+        (
+            "tosca",
+            "TOSCA (Camera::TOSCA)",
+            &["cat0.off", "centaur0.off", "wolf0.off"],
+            Camera::TOSCA,
+        ),
+        (
+            "cactus",
+            "Cactus (Camera::CACTUS)",
+            &["cactus0.ply", "cactus5.ply", "cactus10.ply"],
+            Camera::CACTUS,
+        ),
+        (
+            "sumner/cat-lion",
+            "Sumner cat and lion (Camera::SUMNER)",
+            &["cat-reference.obj", "cat-03.obj", "lion-reference.obj"],
+            Camera::SUMNER,
+        ),
+    ];
+    for (sub, title, files, camera) in sets {
+        let Some(folder) = crate::data::shared_data_or_skip(sub, "plot::demo") else {
+            continue;
+        };
+        let mut panels = Vec::new();
+        for f in files {
+            let path = folder.join(f);
+            if !path.exists() {
+                continue;
+            }
+            let mesh = crate::mesh::io::read_mesh(&path)?;
+            let keys = farthest_point_sampling(&mesh, 6, FpsMetric::Euclidean, 0)?;
+            panels.push(Panel {
+                label: f.to_string(),
+                keypoints: keys.iter().enumerate().map(|(i, &v)| (v, i)).collect(),
+                mesh,
+                coloring: Coloring::Plain,
+            });
+        }
+        if panels.is_empty() {
+            continue;
+        }
+        let fig = Figure {
+            title: title.into(),
+            caption: Some("6 FPS key points each".into()),
+            panels,
+            camera,
+            panel_size: (420, 420),
+        };
+        let stem = dir.join(format!("figure_{}", sub.replace('/', "_")));
+        save_figure(&fig, &stem)?;
+        push(stem, &["png"]);
     }
     Ok(out)
 }

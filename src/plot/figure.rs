@@ -13,7 +13,6 @@ use super::axis::{format_tick, Axis};
 use super::font::{self, ensure_font, GlyphBackend};
 use super::output::{with_suffix, write_png_atomic, Image};
 use super::render::{check_panel, render_mesh, RenderOptions, View};
-use super::style::colormap;
 use super::{Coloring, Figure};
 use crate::{Error, Result};
 
@@ -22,7 +21,7 @@ pub const DEFAULT_PANEL_SIZE: (u32, u32) = (480, 640);
 /// Smallest accepted panel side, in pixels.
 const MIN_PANEL: u32 = 64;
 /// Largest accepted panel side, in pixels.
-const MAX_PANEL: u32 = 4096;
+const MAX_PANEL: u32 = 2048;
 
 const TITLE_PX: f64 = 28.0;
 const CAPTION_PX: f64 = 20.0;
@@ -42,6 +41,9 @@ struct Bar {
 #[derive(Clone, Debug)]
 struct Layout {
     panel: (u32, u32),
+    /// Left edge of the first panel (non-zero when the title is wider than
+    /// the panels and colour bars).
+    x0: u32,
     header: u32,
     bars: Vec<(Bar, u32, u32)>, // (bar, x of its column, column width)
     width: u32,
@@ -56,6 +58,19 @@ const BAR_TICKS: usize = 6;
 
 fn bar_ticks(b: &Bar) -> (Vec<f64>, f64) {
     Axis::linear(b.lo, b.hi).major_ticks(BAR_TICKS)
+}
+
+/// Width of a colour bar column: gap, bar, ticks, tick labels, rotated
+/// label.
+fn bar_column_width(b: &Bar) -> u32 {
+    let (ticks, step) = bar_ticks(b);
+    let tw = ticks
+        .iter()
+        .map(|&t| text_width(&format_tick(t, step), TICK_PX))
+        .max()
+        .unwrap_or(0);
+    let label_h = if b.label.is_empty() { 0 } else { 34 };
+    20 + 24 + 8 + tw + 10 + label_h + 14
 }
 
 fn layout(fig: &Figure) -> Result<Layout> {
@@ -91,23 +106,26 @@ fn layout(fig: &Figure) -> Result<Layout> {
             }
         }
     }
-    let mut x = n * panel.0;
+    let content: u32 = n * panel.0 + bars.iter().map(bar_column_width).sum::<u32>();
+    let title_w = font::text_size(&fig.title, TITLE_PX, true).0;
+    let caption_w = fig
+        .caption
+        .as_deref()
+        .map_or(0, |c| font::text_size(c, CAPTION_PX, false).0);
+    let need = title_w.max(caption_w) + 40;
+    let x0 = need.saturating_sub(content) / 2;
+    let mut x = x0 + n * panel.0;
     let mut cols = Vec::new();
     for b in bars {
-        let (ticks, step) = bar_ticks(&b);
-        let mut tw = 0;
-        for t in ticks {
-            tw = tw.max(text_width(&format_tick(t, step), TICK_PX));
-        }
-        let label_h = if b.label.is_empty() { 0 } else { 34 };
-        let w = 20 + 24 + 8 + tw + 10 + label_h + 14;
+        let w = bar_column_width(&b);
         cols.push((b, x, w));
         x += w;
     }
     Ok(Layout {
         panel,
+        x0,
         header,
-        width: x,
+        width: x.max(need),
         height: header + panel.1 + footer,
         bars: cols,
     })
@@ -163,7 +181,7 @@ pub fn render_figure(fig: &Figure, opts: &RenderOptions, name: &str) -> Result<I
         let view = View::fit_at_most(&p.mesh, fig.camera, pw, ph, opts.margin, common);
         let raster = render_mesh(p, &view, pw, ph, opts)
             .map_err(|e| Error::invalid(format!("{name}: panel {i}: {e}")))?;
-        img.blit(&raster, i as u32 * pw, lay.header);
+        img.blit(&raster, lay.x0 + i as u32 * pw, lay.header);
     }
     // Colour bar gradients (pixels), then all text with plotters.
     let bar_top = lay.header + ph / 8;
@@ -172,7 +190,7 @@ pub fn render_figure(fig: &Figure, opts: &RenderOptions, name: &str) -> Result<I
         let x0 = x + 20;
         for y in bar_top..bar_bottom {
             let t = (bar_bottom - 1 - y) as f64 / (bar_bottom - 1 - bar_top).max(1) as f64;
-            let c = colormap(t);
+            let c = opts.colormap.color(t);
             for xx in x0..x0 + 24 {
                 img.set(xx, y, c);
             }
@@ -205,7 +223,7 @@ pub fn render_figure(fig: &Figure, opts: &RenderOptions, name: &str) -> Result<I
             if p.label.is_empty() {
                 continue;
             }
-            let cx = i as u32 * pw + pw / 2;
+            let cx = lay.x0 + i as u32 * pw + pw / 2;
             root.draw_text(
                 &p.label,
                 &font::text(LABEL_PX, BLACK).pos(Pos::new(HPos::Center, VPos::Top)),

@@ -36,7 +36,7 @@ pub use demo::demo;
 pub use figure::{render_figure, save_figure_with, DEFAULT_PANEL_SIZE};
 pub use output::Image;
 pub use render::{render_mesh, RenderOptions, Shading, View};
-pub use style::{colormap, keypoint_color, series_style, SeriesStyle};
+pub use style::{colormap, keypoint_color, series_style, ColorMap, SeriesStyle};
 
 /// One line of a [`LineChart`].
 #[derive(Clone, Debug, PartialEq)]

@@ -1,6 +1,6 @@
 //! Software mesh renderer for figure panels: orthographic z-buffer
 //! rasterisation with Lambert shading under a camera-attached light, per
-//! vertex scalar colouring through [`colormap`], and key points drawn as
+//! vertex scalar colouring through a [`ColorMap`], and key points drawn as
 //! shaded spheres that respect depth.
 //!
 //! **Camera.** The mesh is rotated about its bounding box centre by
@@ -28,7 +28,7 @@ use crate::ops::{face_normals, vertex_normals};
 use crate::{Error, Mesh, Point, Vec3};
 
 use super::output::Image;
-use super::style::{colormap, keypoint_color};
+use super::style::{keypoint_color, ColorMap};
 use super::{Camera, Coloring, Panel, Up};
 
 /// Interpolated or per-face normals.
@@ -59,6 +59,8 @@ pub struct RenderOptions {
     pub plain_color: [u8; 3],
     /// Background colour.
     pub background: [u8; 3],
+    /// Colour map of [`Coloring::Scalar`] (and of the colour bars).
+    pub colormap: ColorMap,
     /// Draw every panel of a figure at the same scale (the smallest of the
     /// per-panel fits), so sizes compare across panels; `false` fits each
     /// panel on its own.
@@ -77,6 +79,7 @@ impl Default for RenderOptions {
             plain_color: [200, 200, 206],
             background: [255, 255, 255],
             shared_scale: false,
+            colormap: ColorMap::Viridis,
         }
     }
 }
@@ -256,7 +259,17 @@ pub fn render_mesh(
     opts: &RenderOptions,
 ) -> crate::Result<Image> {
     check_panel(panel, &format!("panel \"{}\"", panel.label))?;
-    let ss = opts.supersample.clamp(1, 4);
+    if !(1..=8192).contains(&width) || !(1..=8192).contains(&height) {
+        return Err(Error::invalid(format!(
+            "panel \"{}\": image size {width}×{height} outside 1..=8192 pixels per side",
+            panel.label
+        )));
+    }
+    // At most ~8 M samples (16 bytes each) whatever the panel size.
+    let mut ss = opts.supersample.clamp(1, 4);
+    while ss > 1 && (width * ss) as u64 * (height * ss) as u64 > 8 << 20 {
+        ss -= 1;
+    }
     let (w, h) = ((width * ss) as usize, (height * ss) as usize);
     let view_s = view.scaled(ss as f64);
     let mesh = &panel.mesh;
@@ -332,7 +345,7 @@ pub fn render_mesh(
                 let lambert = n.dot(&light).max(0.0);
                 let intensity = (ambient + (1.0 - ambient) * lambert) as f32;
                 let base = match &scalar {
-                    Some(t) => to_f(colormap(wa * t[a] + wb * t[b] + wc * t[c])),
+                    Some(t) => to_f(opts.colormap.color(wa * t[a] + wb * t[b] + wc * t[c])),
                     None => plain,
                 };
                 r.depth[i] = z as f32;

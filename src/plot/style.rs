@@ -20,12 +20,51 @@ const VIRIDIS: [[u8; 3]; 9] = [
 /// Viridis-like colour map: `t` in [0, 1] (clamped; NaN maps to 0) from dark
 /// purple through teal and green to yellow.
 pub fn colormap(t: f64) -> [u8; 3] {
+    ColorMap::Viridis.color(t)
+}
+
+/// ColorBrewer "Reds" (9 classes) as control points at t = 0, 1/8, …, 1:
+/// near white through red to dark red; single hue, monotone lightness.
+const REDS: [[u8; 3]; 9] = [
+    [255, 245, 240], // #FFF5F0
+    [254, 224, 210], // #FEE0D2
+    [252, 187, 161], // #FCBBA1
+    [252, 146, 114], // #FC9272
+    [251, 106, 74],  // #FB6A4A
+    [239, 59, 44],   // #EF3B2C
+    [203, 24, 29],   // #CB181D
+    [165, 15, 21],   // #A50F15
+    [103, 0, 13],    // #67000D
+];
+
+/// A sequential colour map for scalar fields.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ColorMap {
+    /// Dark purple → teal → yellow ([`colormap`]).
+    #[default]
+    Viridis,
+    /// Near white → red → dark red: zero stays light, so shading keeps the
+    /// shape readable where most of a heat map is near zero.
+    Reds,
+}
+
+impl ColorMap {
+    /// The colour at `t` in [0, 1] (clamped; NaN maps to 0).
+    pub fn color(self, t: f64) -> [u8; 3] {
+        match self {
+            ColorMap::Viridis => interpolate(&VIRIDIS, t),
+            ColorMap::Reds => interpolate(&REDS, t),
+        }
+    }
+}
+
+fn interpolate(table: &[[u8; 3]; 9], t: f64) -> [u8; 3] {
     let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
-    let n = VIRIDIS.len() - 1;
+    let n = table.len() - 1;
     let s = t * n as f64;
     let i = (s.floor() as usize).min(n - 1);
     let f = s - i as f64;
-    let (a, b) = (VIRIDIS[i], VIRIDIS[i + 1]);
+    let (a, b) = (table[i], table[i + 1]);
     let mix = |k: usize| (a[k] as f64 + f * (b[k] as f64 - a[k] as f64)).round() as u8;
     [mix(0), mix(1), mix(2)]
 }
