@@ -7,8 +7,8 @@ use std::path::Path;
 
 use deformlab::mesh::primitives::{grid, icosphere};
 use deformlab::plot::{
-    colormap, keypoint_color, render_figure, render_mesh, save_figure, Camera, Coloring, Figure,
-    Image, Panel, RenderOptions, Up, View,
+    colormap, keypoint_color, render_figure, render_mesh, save_figure, Camera, ColorMap, Coloring,
+    Figure, Image, Panel, RenderOptions, Up, View,
 };
 use deformlab::{Mesh, Point};
 
@@ -309,6 +309,16 @@ fn colour_map_endpoints_and_monotone_lightness() {
         );
         prev = l;
     }
+    // The Reds map runs from near white to dark red, darkening throughout.
+    assert_eq!(ColorMap::Reds.color(0.0), [255, 245, 240]);
+    assert_eq!(ColorMap::Reds.color(1.0), [103, 0, 13]);
+    let mut prev = 2.0;
+    for i in 0..=200 {
+        let l = lum(ColorMap::Reds.color(i as f64 / 200.0));
+        assert!(l < prev, "Reds lightness not decreasing at {i}");
+        prev = l;
+    }
+    assert_eq!(ColorMap::Viridis.color(0.3), colormap(0.3));
     // Key point colours are fixed per index and differ within the palette.
     assert_eq!(keypoint_color(4), keypoint_color(4));
     for i in 0..12 {
@@ -528,4 +538,42 @@ fn faust_renders_upright_and_facing_the_camera() {
         fwd > 1.5 * bwd,
         "toes {fwd:.3} m forward vs heels {bwd:.3} m back of the shins"
     );
+}
+
+#[test]
+fn shared_scale_keeps_relative_sizes() {
+    let small = icosphere(3);
+    let big = small
+        .map_vertices(|p| Point::from(p.coords * 2.0 + nalgebra::Vector3::new(5.0, 0.0, 0.0)))
+        .unwrap();
+    let fig = Figure {
+        panels: vec![panel(small), panel(big)],
+        panel_size: (200, 200),
+        ..Default::default()
+    };
+    let areas = |shared: bool| -> (usize, usize) {
+        let opts = RenderOptions {
+            shared_scale: shared,
+            ..exact()
+        };
+        let img = render_figure(&fig, &opts, "test").unwrap();
+        let count = |x0: u32| {
+            let mut n = 0;
+            for y in 0..img.height {
+                for x in x0..x0 + 200 {
+                    if img.pixel(x, y).unwrap() != WHITE {
+                        n += 1;
+                    }
+                }
+            }
+            n
+        };
+        (count(0), count(200))
+    };
+    // Each fitted on its own: equal discs.
+    let (a, b) = areas(false);
+    assert!((a as f64 / b as f64 - 1.0).abs() < 0.02, "{a} vs {b}");
+    // One scale: the sphere of twice the radius covers four times the area.
+    let (a, b) = areas(true);
+    assert!((b as f64 / a as f64 - 4.0).abs() < 0.15, "{a} vs {b}");
 }

@@ -6,12 +6,17 @@
 //!
 //! - [`save_line_chart`], [`save_bar_chart`]: 1200 × 800 PNG (2×
 //!   supersampled) and SVG, written atomically; see [`charts`] for layout.
+//! - [`save_table`]: a table (timings) as PNG and SVG sized to its content.
 //! - [`save_figure`] ([`save_figure_with`] for [`RenderOptions`]): a row of
 //!   software-rendered mesh panels ([`render`]) with key points and colour
-//!   bars, PNG.
-//! - [`colormap`], [`keypoint_color`], [`series_style`]: the colours used,
-//!   for matching them elsewhere.
-//! - [`demo`]: writes sample figures (the test `plot_samples`, ignored by
+//!   bars, PNG. [`Camera`] has recommended constants per data set
+//!   ([`Camera::FAUST`], [`Camera::SYNTHETIC`], [`Camera::TOSCA`],
+//!   [`Camera::CACTUS`], [`Camera::SUMNER`], [`Camera::ARMADILLO`]).
+//! - In memory, without files: [`line_chart_image`], [`bar_chart_image`],
+//!   [`render_figure`], [`render_mesh`] (with a [`View`]).
+//! - [`colormap`] / [`ColorMap`], [`keypoint_color`], [`series_style`]: the
+//!   colours used, for matching them elsewhere.
+//! - [`demo()`]: writes sample figures (the test `plot_samples`, ignored by
 //!   default, calls it).
 //!
 //! The font is DejaVu Sans, compiled in from the `dejavu` crate and
