@@ -4,12 +4,44 @@
 //! points). PNG and SVG via plotters with a bundled font (no system
 //! libraries). This is one of the layers that does file I/O.
 //!
-//! Skeleton: the types are the agreed interface; the bodies are being
-//! written (see the plot issue work in progress).
+//! - [`save_line_chart`], [`save_bar_chart`]: 1200 × 800 PNG (2×
+//!   supersampled) and SVG, written atomically; see [`charts`] for layout.
+//! - [`save_table`]: a table (timings) as PNG and SVG sized to its content.
+//! - [`save_figure`] ([`save_figure_with`] for [`RenderOptions`]): a row of
+//!   software-rendered mesh panels ([`render`]) with key points and colour
+//!   bars, PNG. [`Camera`] has recommended constants per data set
+//!   ([`Camera::FAUST`], [`Camera::SYNTHETIC`], [`Camera::TOSCA`],
+//!   [`Camera::CACTUS`], [`Camera::SUMNER`], [`Camera::ARMADILLO`]).
+//! - In memory, without files: [`line_chart_image`], [`bar_chart_image`],
+//!   [`render_figure`], [`render_mesh`] (with a [`View`]).
+//! - [`colormap`] / [`ColorMap`], [`keypoint_color`], [`series_style`]: the
+//!   colours used, for matching them elsewhere.
+//! - [`demo()`]: writes sample figures (the test `plot_samples`, ignored by
+//!   default, calls it).
+//!
+//! The font is DejaVu Sans, compiled in from the `dejavu` crate and
+//! registered with plotters' ab_glyph renderer ([`font`]); no fontconfig or
+//! FreeType is involved.
+
+pub mod axis;
+pub mod charts;
+pub mod demo;
+pub mod figure;
+pub mod font;
+pub mod output;
+pub mod render;
+pub mod style;
 
 use std::path::Path;
 
-use crate::{Error, Mesh, Result};
+use crate::{Mesh, Result};
+
+pub use charts::{bar_chart_image, line_chart_image, CHART_SIZE};
+pub use demo::demo;
+pub use figure::{render_figure, save_figure_with, DEFAULT_PANEL_SIZE};
+pub use output::Image;
+pub use render::{render_mesh, RenderOptions, Shading, View};
+pub use style::{colormap, keypoint_color, series_style, ColorMap, SeriesStyle};
 
 /// One line of a [`LineChart`].
 #[derive(Clone, Debug, PartialEq)]
@@ -66,31 +98,66 @@ pub struct BarChart {
 
 /// Writes `stem.png` and `stem.svg` (atomically: temporary file + rename).
 /// Errors on empty or non-finite data (naming the series) and on I/O.
+/// Parent directories are created.
 pub fn save_line_chart(chart: &LineChart, stem: &Path) -> Result<()> {
-    let _ = chart;
-    Err(Error::invalid(format!(
-        "{}: line charts are not implemented yet",
-        stem.display()
-    )))
+    charts::save_line_chart(chart, stem)
 }
 
 /// Writes `stem.png` and `stem.svg` (atomically).
+/// Errors on empty charts, values that do not match the categories, and
+/// non-finite (or, with `log_y`, non-positive) values, naming the series.
 pub fn save_bar_chart(chart: &BarChart, stem: &Path) -> Result<()> {
-    let _ = chart;
-    Err(Error::invalid(format!(
-        "{}: bar charts are not implemented yet",
-        stem.display()
-    )))
+    charts::save_bar_chart(chart, stem)
+}
+
+/// A table drawn as a figure (timings, ablation numbers): a header row in
+/// bold, booktabs-style rules, numeric columns right-aligned.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct Table {
+    /// Title drawn above the table.
+    pub title: String,
+    /// Optional caption line.
+    pub caption: Option<String>,
+    /// Column headers.
+    pub columns: Vec<String>,
+    /// Cells, one row per entry, each with one cell per column.
+    pub rows: Vec<Vec<String>>,
+}
+
+/// Writes `stem.png` and `stem.svg` (atomically), sized to the content.
+/// Errors on a table without columns or rows and on ragged rows.
+pub fn save_table(table: &Table, stem: &Path) -> Result<()> {
+    charts::save_table(table, stem)
 }
 
 /// Viewing direction of a render (orthographic camera looking at the
 /// bounding box centre, y up before rotation).
+///
+/// The model is first turned so that its `up` axis points up (+y), then
+/// rotated by `yaw_deg` about the vertical and by `pitch_deg` about the
+/// horizontal screen axis; the viewer looks along −z. Yaw 0 pitch 0 views
+/// the model from its +z side (for `up = Z`, from its −y side). Positive
+/// yaw turns the model counter-clockwise seen from above; positive pitch
+/// shows it from above. See the per-dataset constants ([`Camera::FAUST`],
+/// [`Camera::TOSCA`], …).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     /// Rotation about the vertical axis, degrees.
     pub yaw_deg: f64,
     /// Rotation about the horizontal axis, degrees.
     pub pitch_deg: f64,
+    /// Which model axis is "up" (added field; default [`Up::Y`]).
+    pub up: Up,
+}
+
+/// The model axis drawn pointing up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Up {
+    /// +y is up (FAUST, the synthetic set, Sumner's meshes, Armadillo).
+    #[default]
+    Y,
+    /// +z is up (TOSCA, the cactus).
+    Z,
 }
 
 impl Default for Camera {
@@ -98,6 +165,7 @@ impl Default for Camera {
         Camera {
             yaw_deg: 0.0,
             pitch_deg: 0.0,
+            up: Up::Y,
         }
     }
 }
@@ -153,10 +221,58 @@ pub struct Figure {
 
 /// Renders the figure to `stem.png` (atomically). Errors on an empty
 /// figure, a colouring or key point that does not fit its mesh, and I/O.
+/// `panel_size` `(0, 0)` (the `Default`) means [`DEFAULT_PANEL_SIZE`].
+/// Uses [`RenderOptions::default`].
 pub fn save_figure(figure: &Figure, stem: &Path) -> Result<()> {
-    let _ = figure;
-    Err(Error::invalid(format!(
-        "{}: mesh renders are not implemented yet",
-        stem.display()
-    )))
+    save_figure_with(figure, &RenderOptions::default(), stem)
+}
+
+impl Camera {
+    /// Straight-on view (yaw 0, pitch 0, y up): the default.
+    pub const FRONT: Camera = Camera {
+        yaw_deg: 0.0,
+        pitch_deg: 0.0,
+        up: Up::Y,
+    };
+    /// FAUST registrations (y up, facing +z): front view, slightly from
+    /// above.
+    pub const FAUST: Camera = Camera {
+        yaw_deg: 0.0,
+        pitch_deg: 8.0,
+        up: Up::Y,
+    };
+    /// The synthetic FAUST-style set (y up, facing +z, left at +x): front
+    /// view, slightly from above.
+    pub const SYNTHETIC: Camera = Camera {
+        yaw_deg: 0.0,
+        pitch_deg: 8.0,
+        up: Up::Y,
+    };
+    /// TOSCA (z up, facing −y; yaw 0 shows the face): three-quarter view
+    /// from the front right and above, head to the right.
+    pub const TOSCA: Camera = Camera {
+        yaw_deg: 50.0,
+        pitch_deg: 15.0,
+        up: Up::Z,
+    };
+    /// The cactus benchmark (z up): the arms to the left and right (yaw 0
+    /// would look along the arms), slightly from above.
+    pub const CACTUS: Camera = Camera {
+        yaw_deg: 90.0,
+        pitch_deg: 10.0,
+        up: Up::Z,
+    };
+    /// Sumner & Popović's cat, lion, horse and camel (y up, facing +z):
+    /// three-quarter view from the front right and above, head to the right.
+    pub const SUMNER: Camera = Camera {
+        yaw_deg: 50.0,
+        pitch_deg: 15.0,
+        up: Up::Y,
+    };
+    /// The Stanford Armadillo (y up, facing −z): front view.
+    pub const ARMADILLO: Camera = Camera {
+        yaw_deg: 180.0,
+        pitch_deg: 5.0,
+        up: Up::Y,
+    };
 }

@@ -1,0 +1,183 @@
+//! In-memory RGB images and atomic file output (temporary file in the target
+//! directory, then rename), so a reader never sees a half-written figure.
+
+use std::ffi::OsString;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use plotters::prelude::*;
+
+use crate::{Error, Result};
+
+/// An 8-bit sRGB image, rows top to bottom, 3 bytes per pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    pub rgb: Vec<u8>,
+}
+
+impl Image {
+    /// A `width` × `height` image filled with `color`.
+    pub fn new(width: u32, height: u32, color: [u8; 3]) -> Self {
+        let n = width as usize * height as usize;
+        let mut rgb = Vec::with_capacity(3 * n);
+        for _ in 0..n {
+            rgb.extend_from_slice(&color);
+        }
+        Image { width, height, rgb }
+    }
+
+    /// The pixel at column `x`, row `y` (`None` outside).
+    pub fn pixel(&self, x: u32, y: u32) -> Option<[u8; 3]> {
+        if x >= self.width || y >= self.height {
+            return None;
+        }
+        let i = 3 * (y as usize * self.width as usize + x as usize);
+        Some([self.rgb[i], self.rgb[i + 1], self.rgb[i + 2]])
+    }
+
+    /// Sets a pixel; ignores positions outside the image.
+    pub fn set(&mut self, x: u32, y: u32, c: [u8; 3]) {
+        if x < self.width && y < self.height {
+            let i = 3 * (y as usize * self.width as usize + x as usize);
+            self.rgb[i..i + 3].copy_from_slice(&c);
+        }
+    }
+
+    /// Copies `src` with its top left corner at `(x0, y0)` (clipped).
+    pub fn blit(&mut self, src: &Image, x0: u32, y0: u32) {
+        for y in 0..src.height {
+            let ty = y0 + y;
+            if ty >= self.height {
+                break;
+            }
+            let w = src.width.min(self.width.saturating_sub(x0)) as usize;
+            if w == 0 {
+                return;
+            }
+            let s = 3 * (y as usize * src.width as usize);
+            let d = 3 * (ty as usize * self.width as usize + x0 as usize);
+            self.rgb[d..d + 3 * w].copy_from_slice(&src.rgb[s..s + 3 * w]);
+        }
+    }
+
+    /// Box-filter downsampling by an integer `factor` (1 returns a copy).
+    pub fn downsample(&self, factor: u32) -> Image {
+        let f = factor.max(1);
+        if f == 1 {
+            return self.clone();
+        }
+        let (w, h) = (self.width / f, self.height / f);
+        let mut out = Image::new(w, h, [0, 0, 0]);
+        let n = f * f;
+        for y in 0..h {
+            for x in 0..w {
+                let mut acc = [0u32; 3];
+                for dy in 0..f {
+                    let row = 3 * ((y * f + dy) as usize * self.width as usize);
+                    for dx in 0..f {
+                        let i = row + 3 * (x * f + dx) as usize;
+                        for (a, &c) in acc.iter_mut().zip(&self.rgb[i..i + 3]) {
+                            *a += c as u32;
+                        }
+                    }
+                }
+                let c = [
+                    ((acc[0] + n / 2) / n) as u8,
+                    ((acc[1] + n / 2) / n) as u8,
+                    ((acc[2] + n / 2) / n) as u8,
+                ];
+                out.set(x, y, c);
+            }
+        }
+        out
+    }
+}
+
+/// `stem` with `.ext` appended (not replacing an existing extension:
+/// `fig.v2` gives `fig.v2.png`). Errors if `stem` has no file name.
+pub fn with_suffix(stem: &Path, ext: &str) -> Result<PathBuf> {
+    if stem.file_name().is_none() {
+        return Err(Error::invalid(format!(
+            "{}: output path has no file name",
+            stem.display()
+        )));
+    }
+    let mut s: OsString = stem.as_os_str().to_owned();
+    s.push(".");
+    s.push(ext);
+    Ok(PathBuf::from(s))
+}
+
+/// A fresh temporary path next to `path`, ending in `.tmp.<ext>` (the PNG
+/// encoder picks the format from the extension). Creates the directory.
+fn temp_path(path: &Path, ext: &str) -> Result<PathBuf> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    Ok(dir.join(format!(".{name}.{}.{n}.tmp.{ext}", std::process::id())))
+}
+
+/// Moves `tmp` onto `path`, removing `tmp` if that fails.
+fn commit(tmp: &Path, path: &Path) -> Result<()> {
+    std::fs::rename(tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(tmp);
+        Error::io(path, e)
+    })
+}
+
+/// Writes `bytes` to `path` atomically, creating parent directories.
+pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let tmp = temp_path(path, "part")?;
+    if let Err(e) = std::fs::write(&tmp, bytes) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(Error::io(&tmp, e));
+    }
+    commit(&tmp, path)
+}
+
+/// Encodes `image` as PNG at `path` atomically, creating parent directories.
+pub fn write_png_atomic(path: &Path, image: &Image) -> Result<()> {
+    if image.width == 0 || image.height == 0 {
+        return Err(Error::invalid(format!(
+            "{}: image of size {}×{} cannot be written",
+            path.display(),
+            image.width,
+            image.height
+        )));
+    }
+    let tmp = temp_path(path, "png")?;
+    let result = (|| {
+        let backend = BitMapBackend::new(&tmp, (image.width, image.height));
+        let root = backend.into_drawing_area();
+        root.draw(
+            &plotters::element::BitMapElement::with_ref(
+                (0, 0),
+                (image.width, image.height),
+                &image.rgb,
+            )
+            .ok_or_else(|| "buffer size does not match the image".to_string())?,
+        )
+        .map_err(|e| e.to_string())?;
+        root.present().map_err(|e| e.to_string())
+    })();
+    match result {
+        Ok(()) => commit(&tmp, path),
+        Err(msg) => {
+            let _ = std::fs::remove_file(&tmp);
+            Err(Error::invalid(format!(
+                "{}: PNG encoding failed: {msg}",
+                path.display()
+            )))
+        }
+    }
+}
