@@ -230,7 +230,7 @@ pub fn geodesic_error_curve(
         )));
     }
     let area = total_area(mesh);
-    if !(area > 0.0) {
+    if area.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return Err(Error::invalid("mesh has zero area"));
     }
     let graph = EdgeGraph::new(mesh);
@@ -270,7 +270,7 @@ pub fn arap_energy(rest: &Mesh, deformed: &[Point]) -> Result<(f64, f64)> {
     let p = rest.vertices();
     let mut edges = cotan_weights(rest);
     // Merge the per-face contributions of each edge.
-    edges.sort_by(|a, b| a.0.cmp(&b.0));
+    edges.sort_by_key(|e| e.0);
     let mut merged: Vec<((usize, usize), f64)> = Vec::with_capacity(edges.len() / 2 + 1);
     for (e, w) in edges {
         match merged.last_mut() {

@@ -25,6 +25,9 @@ use crate::{Error, Result};
 
 type Row = BTreeMap<String, String>;
 
+/// (group, mesh, per-vertex error, key points) of one result panel.
+type ResultPanel = (String, Mesh, Vec<f64>, Vec<(usize, usize)>);
+
 fn read_csv(path: &Path) -> Result<Vec<Row>> {
     let mut r =
         csv::Reader::from_path(path).map_err(|e| Error::parse(path, "CSV", e.to_string()))?;
@@ -633,7 +636,7 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                     });
                 }
             }
-            let mut results: Vec<(String, Mesh, Vec<f64>, Vec<(usize, usize)>)> = Vec::new();
+            let mut results: Vec<ResultPanel> = Vec::new();
             for (g, r) in &shown {
                 let m = &r["method"];
                 let file = if fits { "fit" } else { "result" };
