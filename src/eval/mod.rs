@@ -307,6 +307,30 @@ pub fn arap_energy(rest: &Mesh, deformed: &[Point]) -> Result<(f64, f64)> {
     Ok((energy, relative))
 }
 
+/// Per-face `|log(A′_f / A_f)|` of `deformed` against `rest` (same faces),
+/// for distortion curves ([`cumulative_curve`] of these values); faces
+/// degenerate in either shape are left out. Errors on a vertex count
+/// mismatch.
+pub fn face_log_area_ratios(rest: &Mesh, deformed: &[Point]) -> Result<Vec<f64>> {
+    if deformed.len() != rest.n_vertices() {
+        return Err(Error::invalid(format!(
+            "area ratios of {} vertices against a rest shape with {}",
+            deformed.len(),
+            rest.n_vertices()
+        )));
+    }
+    let d = deformed;
+    Ok(rest
+        .faces()
+        .iter()
+        .zip(face_areas(rest))
+        .filter_map(|(&[i, j, k], a)| {
+            let a1 = 0.5 * (d[j] - d[i]).cross(&(d[k] - d[i])).norm();
+            (a > 0.0 && a1 > 0.0 && a1.is_finite()).then(|| (a1 / a).ln().abs())
+        })
+        .collect())
+}
+
 /// Distortion of `deformed` relative to `rest` (same faces): statistics of
 /// the per-face log area ratios `log(A′_f / A_f)` and per-edge log length
 /// ratios `log(ℓ′_e / ℓ_e)`. Faces or edges that are degenerate in either
@@ -595,6 +619,9 @@ mod tests {
         assert!((d.area_log_mean_abs - 2.0 * k.ln()).abs() < 1e-12);
         assert!((d.area_log_max_abs - 2.0 * k.ln()).abs() < 1e-12);
         assert!((d.edge_log_rms - k.ln()).abs() < 1e-12);
+        let r = face_log_area_ratios(&s, &scaled).unwrap();
+        assert_eq!(r.len(), s.n_faces());
+        assert!(r.iter().all(|x| (x - 2.0 * k.ln()).abs() < 1e-12));
         let r = distortion(&s, &rigid(s.vertices())).unwrap();
         assert!(r.area_log_max_abs < 1e-12 && r.edge_log_max_abs < 1e-12);
     }

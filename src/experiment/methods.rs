@@ -16,7 +16,8 @@
 //! * `arap_energy` / `arap_energy_truth`: relative ARAP energy of `B′_j`
 //!   (resp. the ground truth) against `B`, mean over poses.
 //! * `distortion_area` / `distortion_edge`: area-weighted mean `|log|` face
-//!   area ratio and RMS log edge length ratio of `B′_j` against `B`.
+//!   area ratio and RMS log edge length ratio of `B′_j` against `B`; curve
+//!   `distortion_area`: fraction of faces with `|log(A′/A)| ≤` bound.
 //! * clustering: `ari`, `purity` against the dataset's true labels (synthetic
 //!   set), `rigidity_unit` (RMS residual of the best rigid motion of each
 //!   cluster onto every deformed pose, unit-sphere units of `A`).
@@ -39,7 +40,7 @@ use super::dataset::Collection;
 use super::store::{num, secs, CaseResult, Curve};
 use crate::eval::{
     aligned_vertex_errors, arap_energy, cluster_rigidity_rms, cumulative_curve, curve_grid,
-    distortion, error_stats, vertex_errors, ErrorScale,
+    distortion, error_stats, face_log_area_ratios, vertex_errors, ErrorScale,
 };
 use crate::mesh::io::write_ply;
 use crate::mesh::Mesh;
@@ -223,8 +224,10 @@ fn bdt(
     let mut pooled: Vec<f64> = Vec::new();
     let (mut e_arap, mut e_arap_truth, mut d_area, mut d_edge) = (0.0, 0.0, 0.0, 0.0);
     let mut n_truth = 0;
+    let mut log_area: Vec<f64> = Vec::new();
     for (res, truth) in tr.meshes.iter().zip(&cm.truth) {
         e_arap += arap_energy(b, res.vertices())?.1;
+        log_area.extend(face_log_area_ratios(b, res.vertices())?);
         let d = distortion(b, res.vertices())?;
         d_area += d.area_log_mean_abs;
         d_edge += d.edge_log_rms;
@@ -243,6 +246,14 @@ fn bdt(
     out.set("arap_energy", num(e_arap / np));
     out.set("distortion_area", num(d_area / np));
     out.set("distortion_edge", num(d_edge / np));
+    // Distortion curve: fraction of faces whose |log area ratio| to B is
+    // within a bound (grid 0..1, i.e. area ratios within [1/e, e]).
+    let grid = curve_grid(1.0, metrics.curve_points())?;
+    out.curves.push(Curve::new(
+        "distortion_area",
+        &grid,
+        &cumulative_curve(&log_area, &grid),
+    ));
     if n_truth > 0 {
         out.set("arap_energy_truth", num(e_arap_truth / n_truth as f64));
         let s = error_stats(&pooled)?;

@@ -197,9 +197,25 @@ fn default_plots(c: &Config) -> Vec<PlotSpec> {
 }
 
 fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
-    for (curve, units, suffix) in [
-        ("cumulative_unit", "unit-sphere units of B", ""),
-        ("cumulative_area", "√area(B) units", "_area"),
+    for (curve, x_label, y_label, suffix) in [
+        (
+            "cumulative_unit",
+            "error bound (unit-sphere units of B)",
+            "vertices within the bound (%)",
+            "",
+        ),
+        (
+            "cumulative_area",
+            "error bound (√area(B) units)",
+            "vertices within the bound (%)",
+            "_area",
+        ),
+        (
+            "distortion_area",
+            "bound on |log(face area / area on B)|",
+            "faces within the bound (%)",
+            "_distortion",
+        ),
     ] {
         let mut series = Vec::new();
         for (g, methods) in &ctx.groups {
@@ -241,16 +257,21 @@ fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             });
         }
         if series.is_empty() {
-            return Err(Error::invalid(format!("no {curve} curves in curves.csv")));
+            if curve == "cumulative_unit" {
+                return Err(Error::invalid(format!("no {curve} curves in curves.csv")));
+            }
+            continue;
         }
         let chart = LineChart {
-            title: spec
-                .title
-                .clone()
-                .unwrap_or_else(|| format!("{}: cumulative error to ground truth", ctx.title)),
+            title: match (&spec.title, suffix) {
+                (Some(t), "") => t.clone(),
+                (Some(t), _) => format!("{t} ({})", suffix.trim_start_matches('_')),
+                (None, "_distortion") => format!("{}: cumulative area distortion", ctx.title),
+                (None, _) => format!("{}: cumulative error to ground truth", ctx.title),
+            },
             caption: Some(ctx.caption.clone()),
-            x_label: format!("error bound ({units})"),
-            y_label: "vertices within the bound (%)".into(),
+            x_label: x_label.into(),
+            y_label: y_label.into(),
             series,
             x_range: None,
             y_range: Some((0.0, 100.0)),
