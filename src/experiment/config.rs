@@ -527,6 +527,9 @@ pub struct PlotSpec {
     /// cases.csv columns plotted (bars, line).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub metrics: Vec<String>,
+    /// Only these methods (default: all), e.g. one selection trace.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub methods: Vec<String>,
     /// cases.csv column on the x axis (line).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub x: Option<String>,
@@ -866,6 +869,15 @@ fn check_outputs(c: &LoadedConfig) -> Result<()> {
                         "{m:?} is not a cases.csv column; expected one of {}",
                         CASE_COLUMNS.join(", ")
                     ),
+                ));
+            }
+        }
+        for m in &p.methods {
+            if !c.methods.iter().any(|x| x.name == *m) {
+                return Err(bad(
+                    &c.path,
+                    format!("outputs.plots[{i}].methods"),
+                    format!("{m:?} is not the name of a [[methods]] entry"),
                 ));
             }
         }

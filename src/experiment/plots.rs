@@ -157,7 +157,19 @@ pub fn make_plots(dir: &Path) -> Result<Vec<String>> {
     if specs.is_empty() {
         specs = default_plots(&ctx.config);
     }
+    let all_groups = ctx.groups.clone();
     for spec in &specs {
+        ctx.groups = all_groups
+            .iter()
+            .filter_map(|(g, ms)| {
+                let keep: Vec<String> = ms
+                    .iter()
+                    .filter(|m| spec.methods.is_empty() || spec.methods.contains(m))
+                    .cloned()
+                    .collect();
+                (!keep.is_empty()).then(|| (g.clone(), keep))
+            })
+            .collect();
         let r = match spec.kind {
             PlotKind::Cumulative => cumulative(&ctx, spec),
             PlotKind::Bars => bars(&ctx, spec),
@@ -179,6 +191,7 @@ fn default_plots(c: &Config) -> Vec<PlotSpec> {
         file: None,
         title: None,
         metrics: metrics.iter().map(|s| s.to_string()).collect(),
+        methods: Vec::new(),
         x: None,
         show: None,
         log_y: None,
@@ -369,7 +382,8 @@ fn trace(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             continue;
         }
         let k = (r["method"].clone(), r["case_id"].clone());
-        if !keys.contains(&k) {
+        let shown = ctx.groups.iter().any(|(_, ms)| ms.contains(&k.0));
+        if shown && !keys.contains(&k) {
             keys.push(k);
         }
     }
@@ -384,7 +398,8 @@ fn trace(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             })
             .filter_map(|r| Some((f(r, "x")?, f(r, "y")?)))
             .collect();
-        let label = if ctx.groups.len() > 1 {
+        let n_methods: usize = ctx.groups.iter().map(|(_, ms)| ms.len()).sum();
+        let label = if n_methods > 1 {
             format!("{m}, {c}")
         } else {
             c.clone()
