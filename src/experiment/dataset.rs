@@ -26,6 +26,13 @@ use crate::mesh::io::read_mesh;
 use crate::mesh::Mesh;
 use crate::{Error, Result};
 
+/// The last component of a path (for captions: no local directories).
+fn folder_name(p: &Path) -> String {
+    p.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| p.display().to_string())
+}
+
 /// One mesh of the collection.
 #[derive(Debug)]
 pub struct PoseEntry {
@@ -172,7 +179,7 @@ impl Collection {
             kind: "faust",
             description: format!(
                 "FAUST-style folder {} ({} meshes, {} subjects)",
-                dir.display(),
+                folder_name(dir),
                 f.entries.len(),
                 subjects.len()
             ),
@@ -216,7 +223,7 @@ impl Collection {
             kind: "tosca",
             description: format!(
                 "TOSCA-style folder {} ({} meshes: {})",
-                dir.display(),
+                folder_name(dir),
                 n,
                 subjects
                     .iter()
@@ -270,7 +277,7 @@ impl Collection {
             kind: "manifest",
             description: format!(
                 "manifest {} ({} meshes, {} subjects)",
-                path.display(),
+                folder_name(path),
                 m.meshes.len(),
                 subjects.len()
             ),

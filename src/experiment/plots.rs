@@ -376,6 +376,7 @@ fn bars(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
 
 fn trace(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
     let mut series: Vec<Series> = Vec::new();
+    let mut counts: Vec<usize> = Vec::new();
     let mut keys: Vec<(String, String)> = Vec::new();
     for r in &ctx.curves {
         if r.get("curve").map(String::as_str) != Some("selection_trace") {
@@ -404,11 +405,20 @@ fn trace(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         } else {
             c.clone()
         };
-        series.push(Series {
-            label,
-            x: pts.iter().map(|p| p.0).collect(),
-            y: pts.iter().map(|p| p.1).collect(),
-        });
+        let (x, y): (Vec<f64>, Vec<f64>) = pts.into_iter().unzip();
+        // Cases with the same source and A′ have the same trace: draw it once.
+        match series.iter().position(|s| s.x == x && s.y == y) {
+            Some(i) => counts[i] += 1,
+            None => {
+                series.push(Series { label, x, y });
+                counts.push(1);
+            }
+        }
+    }
+    for (s, n) in series.iter_mut().zip(&counts) {
+        if *n > 1 {
+            s.label = format!("{} (same for {n} cases)", s.label);
+        }
     }
     if series.is_empty() {
         return Err(Error::invalid("no selection traces in curves.csv"));
@@ -542,7 +552,7 @@ fn timing(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         title: spec
             .title
             .clone()
-            .unwrap_or_else(|| format!("{}: running times (BDT Table 1)", ctx.title)),
+            .unwrap_or_else(|| format!("{}: running times", ctx.title)),
         caption: Some(format!("{}; mean over cases", ctx.caption)),
         y_label: "time (s, log scale)".into(),
         categories: groups.iter().map(|g| g.to_string()).collect(),
@@ -565,12 +575,17 @@ fn keypoints_of(row: &Row) -> Vec<(usize, usize)> {
         .unwrap_or_default()
 }
 
+#[allow(clippy::field_reassign_with_default)]
 fn camera(c: &Config) -> Camera {
     match c.outputs.camera {
-        Some([yaw, pitch]) => Camera {
-            yaw_deg: yaw,
-            pitch_deg: pitch,
-        },
+        Some([yaw, pitch]) => {
+            // Field by field: the camera may gain fields (e.g. the up axis),
+            // which keep their defaults.
+            let mut cam = Camera::default();
+            cam.yaw_deg = yaw;
+            cam.pitch_deg = pitch;
+            cam
+        }
         None => Camera::default(),
     }
 }
@@ -644,7 +659,7 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             let kp0 = keypoints_of(shown[0].1);
             let mut ps = vec![
                 Panel {
-                    label: format!("source A (key points: {})", shown[0].0),
+                    label: "source A".into(),
                     mesh: source.clone(),
                     coloring: Coloring::Plain,
                     keypoints: kp0,
@@ -716,11 +731,7 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                     }
                 };
                 ps.push(Panel {
-                    label: if fits {
-                        format!("fit D_S(A): {g}")
-                    } else {
-                        format!("B′: {g}")
-                    },
+                    label: g,
                     mesh,
                     coloring,
                     keypoints: kp,
@@ -738,8 +749,14 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                     }
                 }),
                 caption: Some(format!(
-                    "{}; coloured spheres: key points; colour: per-vertex error",
-                    ctx.caption
+                    "{}; {}; spheres: key points (on A: those of {}); colour: per-vertex error",
+                    ctx.caption,
+                    if fits {
+                        "right: the deformed source D_S(A) of each method"
+                    } else {
+                        "right: the transferred B′ of each method"
+                    },
+                    shown[0].0
                 )),
                 panels: ps,
                 camera: camera(&ctx.config),

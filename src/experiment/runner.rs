@@ -232,7 +232,9 @@ impl Progress {
 
     fn finish(&self) {
         if let Progress::Bar(b) = self {
-            b.finish();
+            let (n, el) = (b.position(), b.elapsed().as_secs_f64());
+            b.finish_and_clear();
+            eprintln!("{}: {n} case × method results in {el:.1} s", b.prefix());
         }
     }
 }
