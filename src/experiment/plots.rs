@@ -231,6 +231,7 @@ fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         ),
     ] {
         let mut series = Vec::new();
+        let mut curve_cases = std::collections::BTreeSet::new();
         for (g, methods) in &ctx.groups {
             // Mean over the case × method curves of the group.
             let mut acc: BTreeMap<String, (f64, f64, usize)> = BTreeMap::new();
@@ -254,6 +255,15 @@ fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             }
             if order.is_empty() {
                 continue;
+            }
+            for r in &ctx.curves {
+                if r.get("curve").map(String::as_str) == Some(curve)
+                    && methods.iter().any(|m| Some(m) == r.get("method"))
+                {
+                    if let Some(c) = r.get("case_id") {
+                        curve_cases.insert(c.clone());
+                    }
+                }
             }
             let mut pts: Vec<(f64, f64)> = order
                 .iter()
@@ -282,7 +292,16 @@ fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                 (None, "_distortion") => format!("{}: cumulative area distortion", ctx.title),
                 (None, _) => format!("{}: cumulative error to ground truth", ctx.title),
             },
-            caption: Some(ctx.caption.clone()),
+            caption: Some(format!(
+                "{}; mean curve over the {} case(s) with {}",
+                ctx.caption,
+                curve_cases.len(),
+                if suffix == "_distortion" {
+                    "results"
+                } else {
+                    "ground truth"
+                }
+            )),
             x_label: x_label.into(),
             y_label: y_label.into(),
             series,

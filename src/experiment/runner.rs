@@ -323,7 +323,13 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
             r.set("group", m.group.clone());
             r.set("kind", m.method.kind_name());
             let mdir = store.mesh_dir(&case.id);
-            let render = (case.index < render_cases).then(|| RenderOut {
+            // Renders show one method per group: save only its meshes.
+            let first_of_group = l
+                .methods
+                .iter()
+                .find(|x| x.group == m.group)
+                .is_some_and(|x| x.name == m.name);
+            let render = (case.index < render_cases && first_of_group).then(|| RenderOut {
                 dir: &mdir,
                 poses: render_poses,
             });

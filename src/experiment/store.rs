@@ -3,7 +3,8 @@
 //! ```text
 //! DIR/config.json          the hashed part of the config + its hash (written first)
 //! DIR/cases/<case>/<method>.json   one finished case × method (atomic, never overwritten)
-//! DIR/meshes/<case>/...    meshes saved for renders (source, deformed, target, truth, results)
+//! DIR/meshes/<case>/...    meshes saved for renders: source, deformed, target, truth, and
+//!                          the results of the first method of each group ([outputs] render_*)
 //! DIR/manifest.json        config, seed, crate version, git revision, threads, timings
 //! DIR/cases.csv            one row per case × method, rebuilt from cases/ in case order
 //! DIR/curves.csv           case,method,curve,x,y (long format)
