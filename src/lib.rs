@@ -36,6 +36,8 @@ pub mod bench_bdt;
 pub mod bench_skin;
 pub mod data;
 pub mod error;
+pub mod eval;
+pub mod experiment;
 pub mod mesh;
 pub mod ops;
 pub mod plot;

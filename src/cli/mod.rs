@@ -4,6 +4,9 @@ mod bench;
 mod gen;
 mod inspect;
 mod keypoints;
+mod merge;
+mod plot;
+mod run;
 mod transfer;
 
 use std::path::PathBuf;
@@ -105,6 +108,13 @@ pub enum Command {
     /// Select (or reuse) key points on the source, fit their transforms and
     /// transfer every deformed pose to a target mesh (BDT Sec. 3.6).
     Transfer(Box<transfer::TransferArgs>),
+    /// Run experiment configs (TOML): cases × methods, resumable, sharded;
+    /// writes manifest.json, cases.csv, curves.csv, summary.csv and plots.
+    Run(run::RunArgs),
+    /// Join the folders of sharded runs of one config.
+    Merge(merge::MergeArgs),
+    /// Regenerate the plots of results folders from their CSVs and meshes.
+    Plot(plot::PlotArgs),
 }
 
 /// Runs a parsed command line.
@@ -136,5 +146,8 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         } => bench::run(&groups, quick, threads, exact_full),
         Command::Keypoints(a) => keypoints::run(a),
         Command::Transfer(a) => transfer::run(*a),
+        Command::Run(a) => run::run(a),
+        Command::Merge(a) => merge::run(a),
+        Command::Plot(a) => plot::run(a),
     }
 }

@@ -1,0 +1,82 @@
+//! `deformlab run CONFIG... [--out ROOT] [--threads K] [--shard i/N]`.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+
+use clap::Args;
+
+use deformlab::experiment::{run_configs, RunOptions, Shard};
+use deformlab::Result;
+
+/// Arguments of `deformlab run`.
+#[derive(Args, Debug)]
+#[command(after_help = "Examples:\n  \
+    deformlab run experiments/*.toml                 # the default suite → results/<name>/\n  \
+    deformlab run experiments/fig14.toml --threads 2\n  \
+    deformlab run experiments/fig6.toml --out /tmp/r --shard 0/4   # one slice of the cases\n\n\
+    Results: ROOT/<name>/{manifest.json, cases.csv, curves.csv, summary.csv, plots/, meshes/,\n\
+    cases/ (one file per finished case × method)}. Re-running continues an interrupted run\n\
+    (finished results are kept, never overwritten); a changed config is refused for an\n\
+    existing folder. Relative dataset paths in a config are relative to the config file.")]
+pub struct RunArgs {
+    /// Experiment configs (TOML), run one after the other.
+    #[arg(required = true)]
+    pub configs: Vec<PathBuf>,
+    /// Results root: experiment `name` is written to ROOT/name.
+    #[arg(long, default_value = "results")]
+    pub out: PathBuf,
+    /// Worker threads (cases × methods and key point candidates run on them);
+    /// results do not depend on it.
+    #[arg(long, default_value_t = 2)]
+    pub threads: usize,
+    /// Run only the cases with index % N == i (join with `deformlab merge`).
+    #[arg(long, value_name = "i/N")]
+    pub shard: Option<String>,
+    /// Do not make the plots at the end.
+    #[arg(long)]
+    pub no_plots: bool,
+    /// No progress output.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+pub fn run(a: RunArgs) -> Result<ExitCode> {
+    let t = Instant::now();
+    let shard = a.shard.as_deref().map(Shard::parse).transpose()?;
+    let opts = RunOptions {
+        out: a.out,
+        threads: a.threads.max(1),
+        shard,
+        plots: !a.no_plots,
+        progress: !a.quiet,
+        max_new: std::env::var("DEFORMLAB_RUN_MAX_NEW")
+            .ok()
+            .and_then(|s| s.parse().ok()),
+    };
+    let summaries = run_configs(&a.configs, &opts)?;
+    let mut failed = 0;
+    for s in &summaries {
+        println!(
+            "{}: {} computed, {} resumed, {} failed, {:.1} s{} → {}",
+            s.name,
+            s.computed,
+            s.reused,
+            s.failed,
+            s.wall_seconds,
+            if s.complete { "" } else { " (incomplete)" },
+            s.dir.display()
+        );
+        failed += s.failed;
+    }
+    println!(
+        "{} experiment(s), total wall time {:.1} s",
+        summaries.len(),
+        t.elapsed().as_secs_f64()
+    );
+    Ok(if failed > 0 {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
+}

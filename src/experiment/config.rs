@@ -1,0 +1,1235 @@
+//! Experiment config schema (TOML, serde, unknown keys rejected everywhere).
+//!
+//! ```toml
+//! name = "fig14"                # folder name under the results root
+//! description = "..."           # free text (not part of the config hash)
+//! seed = 0                      # random case draws; default seed of every method
+//!
+//! [dataset.synthetic]           # or [dataset.faust] path = "..."
+//! subjects = 3                  #    [dataset.tosca] path = "...", class = "cactus"
+//! poses = 4                     #    [dataset.manifest] path = ".../manifest.toml"
+//! resolution = 1                # (paths are relative to this config file)
+//!
+//! [cases]                       # source subject → target subjects × poses
+//! sources = [0]                 # default: every subject
+//! targets = [1, 2]              # default: every other subject
+//! include_self = false          # also target = source (B = A, truth = A′)
+//! reference_pose = 0            # A and B; default: first pose both subjects have
+//! poses = [1, 2, 3]             # A′; default: every other pose of the source
+//! max_poses = 3                 # keep the first m of them
+//! per_pose = false              # one case per pose (m = 1) instead of all at once
+//! require_truth = true          # drop poses whose ground truth is missing
+//! random = 4                    # N random draws (seeded) instead of the product
+//! max_cases = 10
+//!
+//! [defaults]                    # pipeline options shared by every method
+//! mode = "fast"
+//! n_candidates = 24
+//!
+//! [[methods]]
+//! name = "auto"
+//! kind = "bdt"                  # bdt | bdt_random | bdt_extremity | clustering
+//! max_keypoints = 8             # any pipeline option overrides [defaults]
+//!
+//! [[methods]]
+//! name = "random-0"
+//! kind = "bdt_random"
+//! group = "random"              # plots aggregate methods of one group
+//! count = 6
+//! seed = 0
+//!
+//! [metrics]
+//! procrustes = false            # rigid alignment before measuring
+//! curve_max = 0.2               # cumulative curve grid, unit-sphere units
+//!
+//! [outputs]                     # output-only: not part of the config hash
+//! render_cases = 1
+//! [[outputs.plots]]
+//! kind = "cumulative"
+//! ```
+//!
+//! Errors name the file, the key (e.g. `methods[1].n_candidates`), the line
+//! and what was expected. Sumner–Popović and cage baselines (issue 6) will be
+//! further `kind`s of [`MethodEntry`] / variants of [`Method`].
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::ops::FpsMetric;
+use crate::skin::GroupFeatures;
+use crate::transfer::{
+    ErrorNorm, FastOptions, KeypointOptions, SelectionMode, TargetWeights, TransferFrame,
+    TransferOptions,
+};
+use crate::{Error, Result};
+
+/// A parsed experiment config.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    /// Experiment name: the results folder (letters, digits, `-`, `_`, `.`).
+    pub name: String,
+    /// Free text (not hashed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub description: Option<String>,
+    /// Seed of random case draws and default seed of every method.
+    #[serde(default)]
+    pub seed: u64,
+    /// Where the meshes come from (synthetic by default).
+    #[serde(default)]
+    pub dataset: DatasetSpec,
+    /// Case generator.
+    #[serde(default)]
+    pub cases: CaseSpec,
+    /// Pipeline options shared by every method.
+    #[serde(default)]
+    pub defaults: PipelineSpec,
+    /// The methods, run on every case in this order.
+    pub methods: Vec<MethodEntry>,
+    /// Metric settings.
+    #[serde(default)]
+    pub metrics: MetricsSpec,
+    /// Output-only settings (not hashed).
+    #[serde(default)]
+    pub outputs: OutputSpec,
+}
+
+/// A subject or pose label: a number (`3`) or a name (`"rest"`).
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(untagged)]
+pub enum Label {
+    Index(u64),
+    Name(String),
+}
+
+impl std::fmt::Display for Label {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Label::Index(i) => write!(f, "{i}"),
+            Label::Name(s) => f.write_str(s),
+        }
+    }
+}
+
+/// `[dataset]`: exactly one of the tables, or none (synthetic defaults).
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DatasetSpec {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub synthetic: Option<SyntheticSpec>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub faust: Option<FolderSpec>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tosca: Option<ToscaSpec>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub manifest: Option<FolderSpec>,
+}
+
+/// `[dataset.synthetic]`: [`crate::data::synthetic::FaustStyle`] parameters
+/// (defaults: those of `FaustStyle::default()`).
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SyntheticSpec {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub subjects: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub poses: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resolution: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tail: Option<bool>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spread: Option<f64>,
+}
+
+impl SyntheticSpec {
+    /// The generator configuration.
+    pub fn faust_style(&self) -> crate::data::FaustStyle {
+        let d = crate::data::FaustStyle::default();
+        crate::data::FaustStyle {
+            subjects: self.subjects.unwrap_or(d.subjects),
+            poses: self.poses.unwrap_or(d.poses),
+            resolution: self.resolution.unwrap_or(d.resolution),
+            seed: self.seed.unwrap_or(d.seed),
+            tail: self.tail.unwrap_or(d.tail),
+            spread: self.spread.unwrap_or(d.spread),
+        }
+    }
+}
+
+/// `[dataset.faust]` / `[dataset.manifest]`.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FolderSpec {
+    /// Folder (FAUST) or manifest file, relative to the config file.
+    pub path: PathBuf,
+}
+
+/// `[dataset.tosca]`.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ToscaSpec {
+    /// Folder, relative to the config file.
+    pub path: PathBuf,
+    /// Classes used as subjects (default: all; shapes of different classes
+    /// do not share connectivity, so transfer needs `include_self`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub classes: Option<Vec<String>>,
+}
+
+/// `[cases]`: see the module documentation.
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CaseSpec {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sources: Option<Vec<Label>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub targets: Option<Vec<Label>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub include_self: Option<bool>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_pose: Option<Label>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub poses: Option<Vec<Label>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_poses: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub per_pose: Option<bool>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub require_truth: Option<bool>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub random: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_cases: Option<usize>,
+}
+
+/// Key point selection mode.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum ModeSpec {
+    Exact,
+    Fast,
+}
+
+/// Error summary of the selection.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum ErrorNormSpec {
+    Paper,
+    Rms,
+}
+
+/// FPS metric.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum FpsSpec {
+    Geodesic,
+    Euclidean,
+}
+
+/// Rotation-group / clustering features.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum FeaturesSpec {
+    /// `W` only.
+    Weights,
+    /// `[logr, s]` only.
+    RotationScale,
+    /// `W′ = [W, logr, s]` (BDT Eq. 15).
+    Augmented,
+}
+
+/// Transfer frame.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum FrameSpec {
+    Direct,
+    HandleRelative,
+}
+
+/// Weights computed on the target.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum TargetWeightsSpec {
+    /// The selection mode's weights (fast → fast, exact → bounded).
+    Auto,
+    Bounded,
+    Fast,
+}
+
+/// Method kinds.
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum MethodKind {
+    /// BDT with automatically selected key points (Algorithm 1).
+    #[default]
+    Bdt,
+    /// BDT with random key points (simulated user).
+    BdtRandom,
+    /// BDT with key points at geodesic extremities (simulated user).
+    BdtExtremity,
+    /// Rotation-group clustering only (BDT Fig. 4), scored against labels.
+    Clustering,
+}
+
+/// Random key point pool.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum PoolSpec {
+    /// Among the FPS candidates (n_candidates, the method's seed).
+    Candidates,
+    /// Among all vertices.
+    Vertices,
+}
+
+/// Extremity picking strategy.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum StrategySpec {
+    /// Geodesic FPS started at the vertex nearest the centroid (the start
+    /// itself dropped): the farthest points first.
+    CentroidFps,
+    /// Local maxima of the geodesic distance from the centroid vertex, by
+    /// decreasing distance, then FPS to fill up.
+    Eccentricity,
+}
+
+/// Which deformed examples the clustering features use.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum ExamplesSpec {
+    One,
+    All,
+}
+
+macro_rules! pipeline_struct {
+    ($(#[$m:meta])* pub struct $name:ident { $($(#[$fm:meta])* pub $f:ident : $t:ty,)* }) => {
+        $(#[$m])*
+        #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+        #[serde(deny_unknown_fields)]
+        pub struct $name {
+            $($(#[$fm])* pub $f: $t,)*
+            /// FPS candidates n_c (default 100).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub n_candidates: Option<usize>,
+            /// Seed of FPS, k-means, random picks (default: the config seed).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub seed: Option<u64>,
+            /// Stage-1 threshold ε (default 0.03).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub epsilon: Option<f64>,
+            /// `paper` (default) or `rms`.
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub error_norm: Option<ErrorNormSpec>,
+            /// Upper bound on the key points (default 30).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub max_keypoints: Option<usize>,
+            /// `exact` (default) or `fast`.
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub mode: Option<ModeSpec>,
+            /// `geodesic` (default) or `euclidean`.
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub fps: Option<FpsSpec>,
+            /// Rotation-group features (default `augmented`).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub groups: Option<FeaturesSpec>,
+            /// γ_logr (default 1).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub gamma_logr: Option<f64>,
+            /// γ_s (default 0.1).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub gamma_s: Option<f64>,
+            /// Rotation groups (default: the number of key points).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub n_groups: Option<usize>,
+            /// E_diff data term (default true; false: handle constraints).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub use_ediff: Option<bool>,
+            /// ARAP weight λ (default 0.5).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub lambda: Option<f64>,
+            /// Stage-2 passes (default 10).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub max_swap_passes: Option<usize>,
+            /// Fast mode: k-means subsample (default 1000).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub kmeans_sample: Option<usize>,
+            /// Fast mode: ARAP iterations per trial (default 30).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub arap_max_iter: Option<usize>,
+            /// Select key points from the first m deformed poses only (the
+            /// transforms are then fitted on all of them). Default: all.
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub selection_poses: Option<usize>,
+            /// `direct` (default) or `handle_relative`.
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub frame: Option<FrameSpec>,
+            /// ARAP refinement on the target (default false).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub refine: Option<bool>,
+            /// Target weights: `auto` (default), `bounded`, `fast`.
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub target_weights: Option<TargetWeightsSpec>,
+        }
+    };
+}
+
+macro_rules! merge_pipeline {
+    ($a:expr, $b:expr; $($f:ident),*) => {
+        PipelineSpec { $($f: $a.$f.clone().or_else(|| $b.$f.clone()),)* }
+    };
+}
+
+pipeline_struct! {
+    /// `[defaults]`: pipeline options shared by every method (each method
+    /// may override any of them).
+    pub struct PipelineSpec {}
+}
+
+pipeline_struct! {
+    /// One `[[methods]]` entry: a name, a kind, the kind's own parameters
+    /// and any pipeline option. Keys that do not apply to the kind are
+    /// rejected when the config is resolved.
+    pub struct MethodEntry {
+        /// Unique name (letters, digits, `-`, `_`, `.`): a column value and a folder name.
+        pub name: String,
+        /// What the method does.
+        pub kind: MethodKind,
+        /// Plot group (default: the name): plots aggregate methods of a group.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub group: Option<String>,
+        /// Key points (random, extremity).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub count: Option<usize>,
+        /// Random pool (default `candidates`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub pool: Option<PoolSpec>,
+        /// Extremity strategy (default `centroid_fps`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub strategy: Option<StrategySpec>,
+        /// Extremity jitter radius in √area units (default 0: exact picks).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub jitter: Option<f64>,
+        /// Clustering: FPS handles whose weights form W (default 12).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub handles: Option<usize>,
+        /// Clustering features.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub features: Option<FeaturesSpec>,
+        /// Clustering: `one` or `all` (default) deformed examples.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub examples: Option<ExamplesSpec>,
+        /// Clustering: clusters (default: the number of true labels, else `handles`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub n_clusters: Option<usize>,
+    }
+}
+
+/// `[metrics]`.
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MetricsSpec {
+    /// Rigid (Procrustes) alignment of each result onto its ground truth
+    /// before measuring (default false).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub procrustes: Option<bool>,
+    /// Upper end of the cumulative curve grid in unit-sphere units (default 0.2).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub curve_max: Option<f64>,
+    /// Upper end of the √area curve grid (default 0.15).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub curve_max_area: Option<f64>,
+    /// Grid points (default 41).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub curve_points: Option<usize>,
+}
+
+impl MetricsSpec {
+    pub fn procrustes(&self) -> bool {
+        self.procrustes.unwrap_or(false)
+    }
+    pub fn curve_max(&self) -> f64 {
+        self.curve_max.unwrap_or(0.2)
+    }
+    pub fn curve_max_area(&self) -> f64 {
+        self.curve_max_area.unwrap_or(0.15)
+    }
+    pub fn curve_points(&self) -> usize {
+        self.curve_points.unwrap_or(41)
+    }
+}
+
+/// `[outputs]` (not part of the config hash).
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// Title prefix of the plots (default: the experiment name).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub title: Option<String>,
+    /// Cases (first in case order) whose meshes are saved for renders (default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub render_cases: Option<usize>,
+    /// Deformed poses saved per render case (default 2).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub render_poses: Option<usize>,
+    /// Render camera `[yaw, pitch]` in degrees (default `[0, 0]`: looking along −z, y up).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera: Option<[f64; 2]>,
+    /// Plots made by `run` and `plot`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub plots: Vec<PlotSpec>,
+}
+
+impl OutputSpec {
+    pub fn render_cases(&self) -> usize {
+        self.render_cases.unwrap_or(1)
+    }
+    pub fn render_poses(&self) -> usize {
+        self.render_poses.unwrap_or(2)
+    }
+}
+
+/// Plot kinds (see [`crate::experiment::plots`]).
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum PlotKind {
+    /// Cumulative error curves, one line per method group (BDT Fig. 14).
+    Cumulative,
+    /// Grouped bars of `metrics` (mean ± std over cases) per method group.
+    Bars,
+    /// Selection error vs number of key points (BDT Fig. 6).
+    Trace,
+    /// `metrics` vs the column `x` (mean per method), e.g. BDT Fig. 9.
+    Line,
+    /// Timing bars (log scale) and a Markdown table (BDT Table 1).
+    Timing,
+    /// Mesh panels: source, deformed source, target, results with key points.
+    Panels,
+    /// Mesh panels coloured by cluster (BDT Fig. 4).
+    Clusters,
+}
+
+/// One `[[outputs.plots]]` entry.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PlotSpec {
+    pub kind: PlotKind,
+    /// File stem under plots/ (default: the kind's name).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub file: Option<String>,
+    /// Title (default from the kind and the experiment).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub title: Option<String>,
+    /// cases.csv columns plotted (bars, line).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub metrics: Vec<String>,
+    /// Only these methods (default: all), e.g. one selection trace.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub methods: Vec<String>,
+    /// cases.csv column on the x axis (line).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x: Option<String>,
+    /// Panels: `results` (default: B′ per method) or `fits` (D_S(A) per method).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub show: Option<String>,
+    /// Logarithmic y axis.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub log_y: Option<bool>,
+}
+
+/// The resolved pipeline of a BDT method.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pipeline {
+    pub keypoints: KeypointOptions,
+    pub transfer: TransferOptions,
+    /// Select from the first m deformed poses only.
+    pub selection_poses: Option<usize>,
+}
+
+/// A resolved method: one variant per pipeline, with its parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Method {
+    /// BDT with automatic key points.
+    Bdt { pipeline: Pipeline },
+    /// BDT with `count` random key points drawn with `seed` from `pool`.
+    BdtRandom {
+        pipeline: Pipeline,
+        count: usize,
+        seed: u64,
+        pool: PoolSpec,
+    },
+    /// BDT with `count` geodesic extremities, jittered by up to `jitter`
+    /// (√area units) with `seed`.
+    BdtExtremity {
+        pipeline: Pipeline,
+        count: usize,
+        strategy: StrategySpec,
+        jitter: f64,
+        seed: u64,
+    },
+    /// Rotation-group clustering of the source (no transfer).
+    Clustering {
+        pipeline: Pipeline,
+        handles: usize,
+        features: GroupFeatures,
+        examples: ExamplesSpec,
+        n_clusters: Option<usize>,
+        seed: u64,
+    },
+}
+
+impl Method {
+    /// The pipeline options of the method.
+    pub fn pipeline(&self) -> &Pipeline {
+        match self {
+            Method::Bdt { pipeline }
+            | Method::BdtRandom { pipeline, .. }
+            | Method::BdtExtremity { pipeline, .. }
+            | Method::Clustering { pipeline, .. } => pipeline,
+        }
+    }
+
+    /// Short kind name (as in the config).
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            Method::Bdt { .. } => "bdt",
+            Method::BdtRandom { .. } => "bdt_random",
+            Method::BdtExtremity { .. } => "bdt_extremity",
+            Method::Clustering { .. } => "clustering",
+        }
+    }
+
+    /// Whether the method transfers to a target (and is measured against a
+    /// ground truth).
+    pub fn transfers(&self) -> bool {
+        !matches!(self, Method::Clustering { .. })
+    }
+}
+
+/// A named resolved method.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NamedMethod {
+    pub name: String,
+    pub group: String,
+    pub method: Method,
+}
+
+/// A config loaded from a file: the parsed values, where it came from, and
+/// the resolved methods.
+#[derive(Clone, Debug)]
+pub struct LoadedConfig {
+    pub config: Config,
+    /// The config file.
+    pub path: PathBuf,
+    /// Its folder: relative dataset paths are resolved against it.
+    pub base_dir: PathBuf,
+    pub methods: Vec<NamedMethod>,
+}
+
+/// Columns of cases.csv that plots may name (see [`crate::experiment::store`]).
+pub use super::store::CASE_COLUMNS;
+
+fn valid_name(s: &str) -> bool {
+    !s.is_empty()
+        && s.len() <= 100
+        && s.bytes()
+            .all(|b| b.is_ascii_alphanumeric() || matches!(b, b'-' | b'_' | b'.'))
+        && !s.starts_with('.')
+}
+
+/// The key path (`methods[1].n_candidates`) and line of a byte offset in a
+/// TOML text, reconstructed from the table headers above it and the key on
+/// its line.
+fn key_at(text: &str, offset: usize) -> (String, usize) {
+    let offset = offset.min(text.len());
+    let line_start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
+    let line_no = text[..offset].matches('\n').count() + 1;
+    let mut table = String::new();
+    let mut arrays: BTreeMap<String, usize> = BTreeMap::new();
+    let mut array_paths: BTreeMap<String, String> = BTreeMap::new();
+    for line in text[..line_start].lines() {
+        let t = line.trim();
+        if let Some(inner) = t.strip_prefix("[[").and_then(|r| r.split("]]").next()) {
+            let name = inner.trim().to_string();
+            let c = arrays.entry(name.clone()).or_insert(0);
+            let path = format!("{}[{}]", expand(&name, &array_paths), *c);
+            *c += 1;
+            array_paths.insert(name, path.clone());
+            table = path;
+        } else if let Some(inner) = t.strip_prefix('[').and_then(|r| r.split(']').next()) {
+            table = expand(inner.trim(), &array_paths);
+        }
+    }
+    let line_end = text[offset..].find('\n').map_or(text.len(), |i| offset + i);
+    let line = &text[line_start..line_end];
+    let before = &text[line_start..offset];
+    let word = |s: &str| -> Option<String> {
+        let w: String = s
+            .trim_start()
+            .chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || *c == '_' || *c == '-')
+            .collect();
+        (!w.is_empty()).then_some(w)
+    };
+    let key = if line.trim_start().starts_with('[') {
+        None
+    } else if before.trim().is_empty() {
+        word(&text[offset..line_end])
+    } else {
+        // The last `key =` before the offset on this line (inline tables too).
+        let mut found = None;
+        let mut inline_path: Vec<String> = Vec::new();
+        for (i, ch) in before.char_indices() {
+            if ch == '=' {
+                let head = before[..i].trim_end();
+                let start = head
+                    .rfind(|c: char| {
+                        !(c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.')
+                    })
+                    .map_or(0, |p| p + 1);
+                let k = head[start..].to_string();
+                if !k.is_empty() {
+                    found = Some(k);
+                }
+            } else if ch == '{' {
+                if let Some(k) = found.take() {
+                    inline_path.push(k);
+                }
+            } else if ch == '}' {
+                inline_path.pop();
+            }
+        }
+        found.map(|k| {
+            if inline_path.is_empty() {
+                k
+            } else {
+                format!("{}.{k}", inline_path.join("."))
+            }
+        })
+    };
+    let path = match (table.is_empty(), key) {
+        (_, None) => table,
+        (true, Some(k)) => k,
+        (false, Some(k)) => format!("{table}.{k}"),
+    };
+    (path, line_no)
+}
+
+/// `methods.x` → `methods[2].x` when `methods` is an array of tables.
+fn expand(name: &str, arrays: &BTreeMap<String, String>) -> String {
+    let mut best: Option<(&String, &String)> = None;
+    for (k, v) in arrays {
+        if name.starts_with(&format!("{k}.")) && best.is_none_or(|(b, _)| k.len() > b.len()) {
+            best = Some((k, v));
+        }
+    }
+    match best {
+        Some((k, v)) => format!("{v}{}", &name[k.len()..]),
+        None => name.to_string(),
+    }
+}
+
+/// Parses a config text (`path` is used in messages and to resolve relative
+/// dataset paths).
+pub fn parse_config(text: &str, path: &Path) -> Result<LoadedConfig> {
+    let config: Config = toml::from_str(text).map_err(|e| {
+        let msg = e.message().trim().to_string();
+        match e.span() {
+            Some(span) => {
+                let (key, line) = key_at(text, span.start);
+                let location = if key.is_empty() {
+                    format!("line {line}")
+                } else {
+                    format!("key `{key}` (line {line})")
+                };
+                Error::parse(path, location, msg)
+            }
+            None => Error::parse(path, "config", msg),
+        }
+    })?;
+    let base_dir = path
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."));
+    let methods = resolve(&config, path)?;
+    let loaded = LoadedConfig {
+        config,
+        path: path.to_path_buf(),
+        base_dir,
+        methods,
+    };
+    check_dataset(&loaded)?;
+    check_outputs(&loaded)?;
+    Ok(loaded)
+}
+
+/// Reads and parses a config file.
+pub fn load_config(path: &Path) -> Result<LoadedConfig> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    parse_config(&text, path)
+}
+
+fn bad(path: &Path, key: impl Into<String>, msg: impl Into<String>) -> Error {
+    Error::parse(path, format!("key `{}`", key.into()), msg)
+}
+
+fn check_dataset(c: &LoadedConfig) -> Result<()> {
+    let d = &c.config.dataset;
+    let n = [
+        d.synthetic.is_some(),
+        d.faust.is_some(),
+        d.tosca.is_some(),
+        d.manifest.is_some(),
+    ]
+    .iter()
+    .filter(|x| **x)
+    .count();
+    if n > 1 {
+        return Err(bad(
+            &c.path,
+            "dataset",
+            "expected exactly one of [dataset.synthetic], [dataset.faust], [dataset.tosca], \
+             [dataset.manifest]",
+        ));
+    }
+    let check = |key: &str, p: &Path, want_dir: bool| -> Result<()> {
+        let full = c.base_dir.join(p);
+        let ok = if want_dir {
+            full.is_dir()
+        } else {
+            full.is_file()
+        };
+        if ok {
+            Ok(())
+        } else {
+            Err(bad(
+                &c.path,
+                key,
+                format!(
+                    "expected an existing {} (relative paths are relative to the config file), \
+                     but {} does not exist",
+                    if want_dir { "folder" } else { "file" },
+                    full.display()
+                ),
+            ))
+        }
+    };
+    if let Some(f) = &d.faust {
+        check("dataset.faust.path", &f.path, true)?;
+    }
+    if let Some(f) = &d.tosca {
+        check("dataset.tosca.path", &f.path, true)?;
+    }
+    if let Some(f) = &d.manifest {
+        check("dataset.manifest.path", &f.path, false)?;
+    }
+    if let Some(s) = &d.synthetic {
+        let fs = s.faust_style();
+        let n_poses = crate::data::synthetic::pose::N_POSES;
+        if !(1..=99).contains(&fs.subjects) {
+            return Err(bad(
+                &c.path,
+                "dataset.synthetic.subjects",
+                "expected 1..=99",
+            ));
+        }
+        if !(1..=n_poses).contains(&fs.poses) {
+            return Err(bad(
+                &c.path,
+                "dataset.synthetic.poses",
+                format!("expected 1..={n_poses}"),
+            ));
+        }
+        if !(1..=3).contains(&fs.resolution) {
+            return Err(bad(
+                &c.path,
+                "dataset.synthetic.resolution",
+                "expected 1..=3",
+            ));
+        }
+        if !(0.0..=0.4).contains(&fs.spread) {
+            return Err(bad(&c.path, "dataset.synthetic.spread", "expected 0..=0.4"));
+        }
+    }
+    Ok(())
+}
+
+fn check_outputs(c: &LoadedConfig) -> Result<()> {
+    for (i, p) in c.config.outputs.plots.iter().enumerate() {
+        for m in p.metrics.iter().chain(p.x.iter()) {
+            if !CASE_COLUMNS.contains(&m.as_str()) {
+                return Err(bad(
+                    &c.path,
+                    format!("outputs.plots[{i}]"),
+                    format!(
+                        "{m:?} is not a cases.csv column; expected one of {}",
+                        CASE_COLUMNS.join(", ")
+                    ),
+                ));
+            }
+        }
+        for m in &p.methods {
+            if !c.methods.iter().any(|x| x.name == *m) {
+                return Err(bad(
+                    &c.path,
+                    format!("outputs.plots[{i}].methods"),
+                    format!("{m:?} is not the name of a [[methods]] entry"),
+                ));
+            }
+        }
+        if let Some(f) = &p.file {
+            if !valid_name(f) {
+                return Err(bad(
+                    &c.path,
+                    format!("outputs.plots[{i}].file"),
+                    "expected a plain file stem (letters, digits, - _ .)",
+                ));
+            }
+        }
+        if let Some(s) = &p.show {
+            if s != "results" && s != "fits" {
+                return Err(bad(
+                    &c.path,
+                    format!("outputs.plots[{i}].show"),
+                    format!("expected \"results\" or \"fits\", got {s:?}"),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
+    if !valid_name(&config.name) {
+        return Err(bad(
+            path,
+            "name",
+            format!(
+                "expected a folder name of letters, digits, '-', '_' or '.', got {:?}",
+                config.name
+            ),
+        ));
+    }
+    if config.methods.is_empty() {
+        return Err(bad(
+            path,
+            "methods",
+            "expected at least one [[methods]] entry",
+        ));
+    }
+    let mut out: Vec<NamedMethod> = Vec::new();
+    for (i, m) in config.methods.iter().enumerate() {
+        let key = |k: &str| format!("methods[{i}].{k}");
+        if !valid_name(&m.name) {
+            return Err(bad(
+                path,
+                key("name"),
+                format!(
+                    "expected letters, digits, '-', '_' or '.', got {:?}",
+                    m.name
+                ),
+            ));
+        }
+        if out.iter().any(|o| o.name == m.name) {
+            return Err(bad(
+                path,
+                key("name"),
+                format!("{:?} is used twice", m.name),
+            ));
+        }
+        let not_for = |field: &str, set: bool| -> Result<()> {
+            if set {
+                Err(bad(
+                    path,
+                    key(field),
+                    format!("does not apply to kind = {:?}", kind_str(m.kind)),
+                ))
+            } else {
+                Ok(())
+            }
+        };
+        let pipe = merge_pipeline!(m, config.defaults;
+            n_candidates, seed, epsilon, error_norm, max_keypoints, mode, fps, groups,
+            gamma_logr, gamma_s, n_groups, use_ediff, lambda, max_swap_passes, kmeans_sample,
+            arap_max_iter, selection_poses, frame, refine, target_weights);
+        let pipeline = pipeline(&pipe, config.seed, path, i)?;
+        let seed = pipe.seed.unwrap_or(config.seed);
+        let method = match m.kind {
+            MethodKind::Bdt => {
+                not_for("count", m.count.is_some())?;
+                not_for("pool", m.pool.is_some())?;
+                not_for("strategy", m.strategy.is_some())?;
+                not_for("jitter", m.jitter.is_some())?;
+                not_for("handles", m.handles.is_some())?;
+                not_for("features", m.features.is_some())?;
+                not_for("examples", m.examples.is_some())?;
+                not_for("n_clusters", m.n_clusters.is_some())?;
+                Method::Bdt { pipeline }
+            }
+            MethodKind::BdtRandom => {
+                not_for("strategy", m.strategy.is_some())?;
+                not_for("jitter", m.jitter.is_some())?;
+                not_for("handles", m.handles.is_some())?;
+                not_for("features", m.features.is_some())?;
+                not_for("examples", m.examples.is_some())?;
+                not_for("n_clusters", m.n_clusters.is_some())?;
+                not_for("selection_poses", pipe.selection_poses.is_some())?;
+                let count = m
+                    .count
+                    .ok_or_else(|| bad(path, key("count"), "expected the number of key points"))?;
+                if count == 0 {
+                    return Err(bad(path, key("count"), "expected at least 1"));
+                }
+                Method::BdtRandom {
+                    pipeline,
+                    count,
+                    seed,
+                    pool: m.pool.unwrap_or(PoolSpec::Candidates),
+                }
+            }
+            MethodKind::BdtExtremity => {
+                not_for("pool", m.pool.is_some())?;
+                not_for("handles", m.handles.is_some())?;
+                not_for("features", m.features.is_some())?;
+                not_for("examples", m.examples.is_some())?;
+                not_for("n_clusters", m.n_clusters.is_some())?;
+                not_for("selection_poses", pipe.selection_poses.is_some())?;
+                let count = m
+                    .count
+                    .ok_or_else(|| bad(path, key("count"), "expected the number of key points"))?;
+                if count == 0 {
+                    return Err(bad(path, key("count"), "expected at least 1"));
+                }
+                let jitter = m.jitter.unwrap_or(0.0);
+                if !(jitter.is_finite() && jitter >= 0.0) {
+                    return Err(bad(path, key("jitter"), "expected a finite number ≥ 0"));
+                }
+                Method::BdtExtremity {
+                    pipeline,
+                    count,
+                    strategy: m.strategy.unwrap_or(StrategySpec::CentroidFps),
+                    jitter,
+                    seed,
+                }
+            }
+            MethodKind::Clustering => {
+                not_for("count", m.count.is_some())?;
+                not_for("pool", m.pool.is_some())?;
+                not_for("strategy", m.strategy.is_some())?;
+                not_for("jitter", m.jitter.is_some())?;
+                let handles = m.handles.unwrap_or(12);
+                if handles == 0 {
+                    return Err(bad(path, key("handles"), "expected at least 1"));
+                }
+                if m.n_clusters == Some(0) {
+                    return Err(bad(path, key("n_clusters"), "expected at least 1"));
+                }
+                let f = m.features.unwrap_or(FeaturesSpec::Augmented);
+                Method::Clustering {
+                    features: features(f, &pipe),
+                    pipeline,
+                    handles,
+                    examples: m.examples.unwrap_or(ExamplesSpec::All),
+                    n_clusters: m.n_clusters,
+                    seed,
+                }
+            }
+        };
+        out.push(NamedMethod {
+            name: m.name.clone(),
+            group: m.group.clone().unwrap_or_else(|| m.name.clone()),
+            method,
+        });
+    }
+    Ok(out)
+}
+
+fn kind_str(k: MethodKind) -> &'static str {
+    match k {
+        MethodKind::Bdt => "bdt",
+        MethodKind::BdtRandom => "bdt_random",
+        MethodKind::BdtExtremity => "bdt_extremity",
+        MethodKind::Clustering => "clustering",
+    }
+}
+
+fn features(f: FeaturesSpec, p: &PipelineSpec) -> GroupFeatures {
+    let gamma_logr = p.gamma_logr.unwrap_or(1.0);
+    let gamma_s = p.gamma_s.unwrap_or(0.1);
+    match f {
+        FeaturesSpec::Weights => GroupFeatures::Weights,
+        FeaturesSpec::RotationScale => GroupFeatures::RotationScale {
+            gamma_logr,
+            gamma_s,
+        },
+        FeaturesSpec::Augmented => GroupFeatures::Augmented {
+            gamma_logr,
+            gamma_s,
+        },
+    }
+}
+
+fn pipeline(p: &PipelineSpec, seed: u64, path: &Path, i: usize) -> Result<Pipeline> {
+    let key = |k: &str| format!("methods[{i}].{k} (or defaults.{k})");
+    let d = KeypointOptions::default();
+    let mode = match p.mode.unwrap_or(ModeSpec::Exact) {
+        ModeSpec::Exact => SelectionMode::Exact,
+        ModeSpec::Fast => SelectionMode::Fast,
+    };
+    let positive = |k: &str, v: Option<usize>| -> Result<()> {
+        if v == Some(0) {
+            Err(bad(path, key(k), "expected at least 1"))
+        } else {
+            Ok(())
+        }
+    };
+    positive("n_candidates", p.n_candidates)?;
+    positive("max_keypoints", p.max_keypoints)?;
+    positive("n_groups", p.n_groups)?;
+    positive("selection_poses", p.selection_poses)?;
+    positive("arap_max_iter", p.arap_max_iter)?;
+    for (k, v) in [
+        ("epsilon", p.epsilon),
+        ("lambda", p.lambda),
+        ("gamma_logr", p.gamma_logr),
+        ("gamma_s", p.gamma_s),
+    ] {
+        if let Some(v) = v {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(bad(
+                    path,
+                    key(k),
+                    format!("expected a finite number ≥ 0, got {v}"),
+                ));
+            }
+        }
+    }
+    let mut arap = d.arap.clone();
+    arap.lambda = p.lambda.unwrap_or(arap.lambda);
+    arap.use_ediff = p.use_ediff.unwrap_or(arap.use_ediff);
+    let fast = FastOptions {
+        kmeans_sample: p.kmeans_sample.unwrap_or(d.fast.kmeans_sample),
+        arap_max_iter: p.arap_max_iter.unwrap_or(d.fast.arap_max_iter),
+        ..d.fast.clone()
+    };
+    let keypoints = KeypointOptions {
+        n_candidates: p.n_candidates.unwrap_or(d.n_candidates),
+        seed: p.seed.unwrap_or(seed),
+        epsilon: p.epsilon.unwrap_or(d.epsilon),
+        max_keypoints: p.max_keypoints.unwrap_or(d.max_keypoints),
+        mode,
+        fps: match p.fps.unwrap_or(FpsSpec::Geodesic) {
+            FpsSpec::Geodesic => FpsMetric::Geodesic,
+            FpsSpec::Euclidean => FpsMetric::Euclidean,
+        },
+        groups: features(p.groups.unwrap_or(FeaturesSpec::Augmented), p),
+        n_groups: p.n_groups,
+        arap,
+        max_swap_passes: p.max_swap_passes.unwrap_or(d.max_swap_passes),
+        error_norm: match p.error_norm.unwrap_or(ErrorNormSpec::Paper) {
+            ErrorNormSpec::Paper => ErrorNorm::Paper,
+            ErrorNormSpec::Rms => ErrorNorm::Rms,
+        },
+        fast,
+        ..d
+    };
+    let weight_kind = match p.target_weights.unwrap_or(TargetWeightsSpec::Auto) {
+        TargetWeightsSpec::Bounded => TargetWeights::Bounded,
+        TargetWeightsSpec::Fast => TargetWeights::Fast(keypoints.fast.bounds),
+        TargetWeightsSpec::Auto => match mode {
+            SelectionMode::Fast => TargetWeights::Fast(keypoints.fast.bounds),
+            SelectionMode::Exact => TargetWeights::Bounded,
+        },
+    };
+    let transfer = TransferOptions {
+        frame: match p.frame.unwrap_or(FrameSpec::Direct) {
+            FrameSpec::Direct => TransferFrame::Direct,
+            FrameSpec::HandleRelative => TransferFrame::HandleRelative,
+        },
+        weights: keypoints.weights,
+        weight_kind,
+        refine: p.refine.unwrap_or(false),
+        seed: keypoints.seed,
+        ..TransferOptions::default()
+    };
+    Ok(Pipeline {
+        keypoints,
+        transfer,
+        selection_poses: p.selection_poses,
+    })
+}
+
+impl Config {
+    /// The config without its output-only fields (`description`,
+    /// `outputs`): what the stored results depend on.
+    pub fn hashed_part(&self) -> Config {
+        Config {
+            description: None,
+            outputs: OutputSpec::default(),
+            ..self.clone()
+        }
+    }
+
+    /// FNV-1a 64 of the canonical JSON of [`Config::hashed_part`], as 16 hex digits.
+    pub fn hash(&self) -> String {
+        let json = serde_json::to_string(&self.hashed_part()).unwrap_or_default();
+        format!("{:016x}", fnv1a(json.as_bytes()))
+    }
+}
+
+/// FNV-1a 64-bit hash.
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf29ce484222325;
+    for b in bytes {
+        h ^= u64::from(*b);
+        h = h.wrapping_mul(0x100000001b3);
+    }
+    h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn key_paths_from_offsets() {
+        let text = "name = \"x\"\n[dataset.faust]\npath = 3\n[[methods]]\nname = \"a\"\n\
+                    [[methods]]\nname = \"b\"\nn_candidates = \"many\"\n[methods.extra]\nfoo = 1\n";
+        let off = text.find("3\n").unwrap();
+        assert_eq!(key_at(text, off), ("dataset.faust.path".to_string(), 3));
+        let off = text.find("\"many\"").unwrap();
+        assert_eq!(key_at(text, off).0, "methods[1].n_candidates");
+        let off = text.find("foo").unwrap();
+        assert_eq!(key_at(text, off).0, "methods[1].extra.foo");
+        let t2 = "[[methods]]\nbdt = { a = 1, b = \"x\" }\n";
+        let off = t2.find("\"x\"").unwrap();
+        assert_eq!(key_at(t2, off).0, "methods[0].bdt.b");
+    }
+
+    #[test]
+    fn hash_ignores_outputs_only() {
+        let p = Path::new("x.toml");
+        let a = parse_config(
+            "name = \"a\"\n[[methods]]\nname = \"m\"\nkind = \"bdt\"\n",
+            p,
+        )
+        .unwrap();
+        let b = parse_config(
+            "name = \"a\"\ndescription = \"d\"\n[[methods]]\nname = \"m\"\nkind = \"bdt\"\n\
+             [outputs]\nrender_cases = 3\n",
+            p,
+        )
+        .unwrap();
+        let c = parse_config(
+            "name = \"a\"\n[[methods]]\nname = \"m\"\nkind = \"bdt\"\nn_candidates = 5\n",
+            p,
+        )
+        .unwrap();
+        assert_eq!(a.config.hash(), b.config.hash());
+        assert_ne!(a.config.hash(), c.config.hash());
+    }
+}

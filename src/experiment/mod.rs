@@ -1,0 +1,23 @@
+//! Experiment harness: TOML configs ([`config`]), datasets and cases
+//! ([`dataset`], [`cases`]), methods run on cases ([`methods`]), the
+//! resumable result store ([`store`]), the suite runner with sharding and
+//! merging ([`runner`]) and the plots regenerated from stored results
+//! ([`plots`]). This layer (with `data`, `mesh::io` and `plot`) is the only
+//! one that touches files.
+//!
+//! Results folder layout: see [`store`].
+
+pub mod cases;
+pub mod config;
+pub mod dataset;
+pub mod methods;
+pub mod plots;
+pub mod runner;
+pub mod store;
+
+pub use cases::{generate_cases, Case};
+pub use config::{load_config, parse_config, Config, LoadedConfig, Method, NamedMethod};
+pub use dataset::Collection;
+pub use plots::make_plots;
+pub use runner::{merge, run_configs, RunOptions, RunSummary, Shard};
+pub use store::{CaseResult, Store, CASE_COLUMNS};

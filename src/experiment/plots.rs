@@ -1,0 +1,895 @@
+//! `deformlab plot RESULTS_DIR`: every plot of an experiment regenerated from
+//! its `manifest.json` (the config, with its `[[outputs.plots]]`),
+//! `cases.csv`, `curves.csv` and the saved meshes alone, drawn by
+//! [`crate::plot`]. A plot that cannot be made is a warning, not an error.
+//!
+//! Methods are aggregated by their `group` (default: the method name), in
+//! config order. Without `[[outputs.plots]]` the defaults are: cumulative
+//! error curves and error bars when a method transfers, cluster scores when
+//! one clusters, and mesh panels.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use super::config::{Config, PlotKind, PlotSpec};
+use super::runner::read_manifest;
+use super::store::describe;
+use crate::eval::{vertex_errors, ErrorScale};
+use crate::mesh::io::read_mesh;
+use crate::mesh::Mesh;
+use crate::plot::{
+    save_bar_chart, save_figure, save_line_chart, BarChart, Camera, Coloring, Figure, LineChart,
+    Panel, Series,
+};
+use crate::{Error, Result};
+
+type Row = BTreeMap<String, String>;
+
+/// (group, mesh, per-vertex error, key points) of one result panel.
+type ResultPanel = (String, Mesh, Vec<f64>, Vec<(usize, usize)>);
+
+fn read_csv(path: &Path) -> Result<Vec<Row>> {
+    let mut r =
+        csv::Reader::from_path(path).map_err(|e| Error::parse(path, "CSV", e.to_string()))?;
+    let headers = r
+        .headers()
+        .map_err(|e| Error::parse(path, "header", e.to_string()))?
+        .clone();
+    let mut out = Vec::new();
+    for (i, rec) in r.records().enumerate() {
+        let rec = rec.map_err(|e| Error::parse(path, format!("row {}", i + 2), e.to_string()))?;
+        out.push(
+            headers
+                .iter()
+                .zip(rec.iter())
+                .map(|(h, v)| (h.to_string(), v.to_string()))
+                .collect(),
+        );
+    }
+    Ok(out)
+}
+
+fn f(row: &Row, col: &str) -> Option<f64> {
+    row.get(col)
+        .and_then(|s| s.parse::<f64>().ok())
+        .filter(|x| x.is_finite())
+}
+
+/// Readable axis label of a cases.csv column.
+pub fn column_label(c: &str) -> String {
+    match c {
+        "err_mean_unit" => "mean error to ground truth (unit-sphere units)".into(),
+        "err_rms_unit" => "RMS error to ground truth (unit-sphere units)".into(),
+        "err_max_unit" => "max error to ground truth (unit-sphere units)".into(),
+        "err_mean_area" => "mean error to ground truth (√area units)".into(),
+        "err_rms_area" => "RMS error to ground truth (√area units)".into(),
+        "err_max_area" => "max error to ground truth (√area units)".into(),
+        "fit_error_unit" => "mean fit error on the source (unit-sphere units)".into(),
+        "selection_error" => "key point selection error Ê".into(),
+        "n_keypoints" => "number of key points".into(),
+        "n_selection_poses" => "deformed examples used for selection (m)".into(),
+        "arap_energy" => "relative ARAP energy of B′ vs B".into(),
+        "ari" => "adjusted Rand index vs true bones".into(),
+        "purity" => "purity vs true bones".into(),
+        "rigidity_unit" => "per-cluster rigid-fit RMS residual (unit-sphere units)".into(),
+        c if c.starts_with("seconds_") => {
+            format!("{} (s)", c.trim_start_matches("seconds_").replace('_', " "))
+        }
+        c => c.replace('_', " "),
+    }
+}
+
+struct Ctx {
+    dir: PathBuf,
+    config: Config,
+    title: String,
+    caption: String,
+    rows: Vec<Row>,
+    curves: Vec<Row>,
+    /// Groups in config order, with their methods.
+    groups: Vec<(String, Vec<String>)>,
+    warnings: Vec<String>,
+}
+
+impl Ctx {
+    fn rows_of_group(&self, g: &str) -> Vec<&Row> {
+        self.rows
+            .iter()
+            .filter(|r| r.get("group").map(String::as_str) == Some(g))
+            .filter(|r| r.get("status").map(String::as_str) == Some("ok"))
+            .collect()
+    }
+
+    fn stem(&self, spec: &PlotSpec, default: &str) -> PathBuf {
+        self.dir
+            .join("plots")
+            .join(spec.file.clone().unwrap_or_else(|| default.to_string()))
+    }
+
+    fn warn(&mut self, what: &str, r: Result<()>) {
+        if let Err(e) = r {
+            self.warnings
+                .push(format!("{}: plot {what}: {e}", self.dir.display()));
+        }
+    }
+}
+
+/// Makes every plot of the results folder `dir`; returns the warnings
+/// (plots that could not be made). Errors only if the folder's manifest or
+/// tables cannot be read.
+pub fn make_plots(dir: &Path) -> Result<Vec<String>> {
+    let manifest = read_manifest(dir)?;
+    let config: Config = serde_json::from_value(manifest.config.clone())
+        .map_err(|e| Error::parse(dir.join("manifest.json"), "config", e.to_string()))?;
+    let rows = read_csv(&dir.join("cases.csv"))?;
+    let curves = read_csv(&dir.join("curves.csv"))?;
+    let mut groups: Vec<(String, Vec<String>)> = Vec::new();
+    for m in &config.methods {
+        let g = m.group.clone().unwrap_or_else(|| m.name.clone());
+        match groups.iter_mut().find(|(x, _)| *x == g) {
+            Some((_, v)) => v.push(m.name.clone()),
+            None => groups.push((g, vec![m.name.clone()])),
+        }
+    }
+    let n_cases = rows
+        .iter()
+        .filter_map(|r| r.get("case"))
+        .collect::<std::collections::BTreeSet<_>>()
+        .len();
+    let title = config
+        .outputs
+        .title
+        .clone()
+        .unwrap_or_else(|| config.name.clone());
+    let caption = format!("{}; {} case(s)", manifest.dataset, n_cases);
+    std::fs::create_dir_all(dir.join("plots")).map_err(|e| Error::io(dir.join("plots"), e))?;
+    let mut ctx = Ctx {
+        dir: dir.to_path_buf(),
+        config,
+        title,
+        caption,
+        rows,
+        curves,
+        groups,
+        warnings: Vec::new(),
+    };
+    let mut specs = ctx.config.outputs.plots.clone();
+    if specs.is_empty() {
+        specs = default_plots(&ctx.config);
+    }
+    let all_groups = ctx.groups.clone();
+    for spec in &specs {
+        ctx.groups = all_groups
+            .iter()
+            .filter_map(|(g, ms)| {
+                let keep: Vec<String> = ms
+                    .iter()
+                    .filter(|m| spec.methods.is_empty() || spec.methods.contains(m))
+                    .cloned()
+                    .collect();
+                (!keep.is_empty()).then(|| (g.clone(), keep))
+            })
+            .collect();
+        let r = match spec.kind {
+            PlotKind::Cumulative => cumulative(&ctx, spec),
+            PlotKind::Bars => bars(&ctx, spec),
+            PlotKind::Trace => trace(&ctx, spec),
+            PlotKind::Line => line(&ctx, spec),
+            PlotKind::Timing => timing(&ctx, spec),
+            PlotKind::Panels => panels(&ctx, spec),
+            PlotKind::Clusters => clusters(&ctx, spec),
+        };
+        ctx.warn(&format!("{:?}", spec.kind).to_lowercase(), r);
+    }
+    Ok(ctx.warnings)
+}
+
+fn default_plots(c: &Config) -> Vec<PlotSpec> {
+    use super::config::MethodKind;
+    let spec = |kind, metrics: &[&str]| PlotSpec {
+        kind,
+        file: None,
+        title: None,
+        metrics: metrics.iter().map(|s| s.to_string()).collect(),
+        methods: Vec::new(),
+        x: None,
+        show: None,
+        log_y: None,
+    };
+    let mut v = Vec::new();
+    if c.methods.iter().any(|m| m.kind != MethodKind::Clustering) {
+        v.push(spec(PlotKind::Cumulative, &[]));
+        v.push(spec(PlotKind::Bars, &["err_mean_unit"]));
+        v.push(spec(PlotKind::Panels, &[]));
+    }
+    if c.methods.iter().any(|m| m.kind == MethodKind::Clustering) {
+        v.push(spec(PlotKind::Bars, &["ari", "purity"]));
+        v.push(spec(PlotKind::Clusters, &[]));
+    }
+    v
+}
+
+fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
+    for (curve, x_label, y_label, suffix) in [
+        (
+            "cumulative_unit",
+            "error bound (unit-sphere units of B)",
+            "vertices within the bound (%)",
+            "",
+        ),
+        (
+            "cumulative_area",
+            "error bound (√area(B) units)",
+            "vertices within the bound (%)",
+            "_area",
+        ),
+        (
+            "distortion_area",
+            "bound on |log(face area / area on B)|",
+            "faces within the bound (%)",
+            "_distortion",
+        ),
+    ] {
+        let mut series = Vec::new();
+        let mut curve_cases = std::collections::BTreeSet::new();
+        for (g, methods) in &ctx.groups {
+            // Mean over the case × method curves of the group.
+            let mut acc: BTreeMap<String, (f64, f64, usize)> = BTreeMap::new();
+            let mut order: Vec<String> = Vec::new();
+            for r in &ctx.curves {
+                if r.get("curve").map(String::as_str) != Some(curve)
+                    || !methods.iter().any(|m| Some(m) == r.get("method"))
+                {
+                    continue;
+                }
+                let (Some(x), Some(y)) = (f(r, "x"), f(r, "y")) else {
+                    continue;
+                };
+                let key = r["x"].clone();
+                let e = acc.entry(key.clone()).or_insert_with(|| {
+                    order.push(key.clone());
+                    (x, 0.0, 0)
+                });
+                e.1 += y;
+                e.2 += 1;
+            }
+            if order.is_empty() {
+                continue;
+            }
+            for r in &ctx.curves {
+                if r.get("curve").map(String::as_str) == Some(curve)
+                    && methods.iter().any(|m| Some(m) == r.get("method"))
+                {
+                    if let Some(c) = r.get("case_id") {
+                        curve_cases.insert(c.clone());
+                    }
+                }
+            }
+            let mut pts: Vec<(f64, f64)> = order
+                .iter()
+                .map(|k| {
+                    let (x, s, n) = acc[k];
+                    (x, 100.0 * s / n as f64)
+                })
+                .collect();
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            series.push(Series {
+                label: g.clone(),
+                x: pts.iter().map(|p| p.0).collect(),
+                y: pts.iter().map(|p| p.1).collect(),
+            });
+        }
+        if series.is_empty() {
+            if curve == "cumulative_unit" {
+                return Err(Error::invalid(format!("no {curve} curves in curves.csv")));
+            }
+            continue;
+        }
+        let chart = LineChart {
+            title: match (&spec.title, suffix) {
+                (Some(t), "") => t.clone(),
+                (Some(t), _) => format!("{t} ({})", suffix.trim_start_matches('_')),
+                (None, "_distortion") => format!("{}: cumulative area distortion", ctx.title),
+                (None, _) => format!("{}: cumulative error to ground truth", ctx.title),
+            },
+            caption: Some(format!(
+                "{}; mean curve over the {} case(s) with {}",
+                ctx.caption,
+                curve_cases.len(),
+                if suffix == "_distortion" {
+                    "results"
+                } else {
+                    "ground truth"
+                }
+            )),
+            x_label: x_label.into(),
+            y_label: y_label.into(),
+            series,
+            x_range: None,
+            y_range: Some((0.0, 100.0)),
+            log_y: false,
+            markers: false,
+        };
+        let stem = ctx.stem(spec, "cumulative");
+        let stem = stem.with_file_name(format!(
+            "{}{suffix}",
+            stem.file_name()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        ));
+        save_line_chart(&chart, &stem)?;
+    }
+    Ok(())
+}
+
+fn group_stats(ctx: &Ctx, g: &str, col: &str) -> Option<(f64, f64)> {
+    let v: Vec<f64> = ctx
+        .rows_of_group(g)
+        .iter()
+        .filter_map(|r| f(r, col))
+        .collect();
+    if v.is_empty() {
+        return None;
+    }
+    let (mean, std, ..) = describe(&v);
+    Some((mean, std))
+}
+
+fn bars(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
+    if spec.metrics.is_empty() {
+        return Err(Error::invalid("bars need `metrics`"));
+    }
+    let groups: Vec<&String> = ctx
+        .groups
+        .iter()
+        .map(|(g, _)| g)
+        .filter(|g| {
+            spec.metrics
+                .iter()
+                .any(|m| group_stats(ctx, g, m).is_some())
+        })
+        .collect();
+    if groups.is_empty() {
+        return Err(Error::invalid(format!(
+            "no numbers for {} in cases.csv",
+            spec.metrics.join(", ")
+        )));
+    }
+    let mut series = Vec::new();
+    let mut errors = Vec::new();
+    for m in &spec.metrics {
+        let st: Vec<(f64, f64)> = groups
+            .iter()
+            .map(|g| group_stats(ctx, g, m).unwrap_or((0.0, 0.0)))
+            .collect();
+        series.push((column_label(m), st.iter().map(|s| s.0).collect()));
+        errors.push(st.iter().map(|s| s.1).collect());
+    }
+    let y_label = if spec.metrics.len() == 1 {
+        column_label(&spec.metrics[0])
+    } else if spec.metrics.iter().all(|m| m.ends_with("_unit")) {
+        "error (unit-sphere units)".into()
+    } else if spec.metrics.iter().all(|m| m == "ari" || m == "purity") {
+        "score (1 = true segmentation)".into()
+    } else {
+        "value".into()
+    };
+    let chart = BarChart {
+        title: spec
+            .title
+            .clone()
+            .unwrap_or_else(|| format!("{}: {}", ctx.title, spec.metrics.join(", "))),
+        caption: Some(format!(
+            "{}; bars: mean over cases, whiskers: ±1 std",
+            ctx.caption
+        )),
+        y_label,
+        categories: groups.iter().map(|g| g.to_string()).collect(),
+        series,
+        errors: Some(errors),
+        log_y: spec.log_y.unwrap_or(false),
+    };
+    let default = format!("bars_{}", spec.metrics.join("_"));
+    save_bar_chart(&chart, &ctx.stem(spec, &default))
+}
+
+fn trace(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
+    let mut series: Vec<Series> = Vec::new();
+    let mut counts: Vec<usize> = Vec::new();
+    let mut keys: Vec<(String, String)> = Vec::new();
+    for r in &ctx.curves {
+        if r.get("curve").map(String::as_str) != Some("selection_trace") {
+            continue;
+        }
+        let k = (r["method"].clone(), r["case_id"].clone());
+        let shown = ctx.groups.iter().any(|(_, ms)| ms.contains(&k.0));
+        if shown && !keys.contains(&k) {
+            keys.push(k);
+        }
+    }
+    for (m, c) in &keys {
+        let pts: Vec<(f64, f64)> = ctx
+            .curves
+            .iter()
+            .filter(|r| {
+                r.get("curve").map(String::as_str) == Some("selection_trace")
+                    && r["method"] == *m
+                    && r["case_id"] == *c
+            })
+            .filter_map(|r| Some((f(r, "x")?, f(r, "y")?)))
+            .collect();
+        let n_methods: usize = ctx.groups.iter().map(|(_, ms)| ms.len()).sum();
+        let label = if n_methods > 1 {
+            format!("{m}, {c}")
+        } else {
+            c.clone()
+        };
+        let (x, y): (Vec<f64>, Vec<f64>) = pts.into_iter().unzip();
+        // Cases with the same source and A′ have the same trace: draw it once.
+        match series.iter().position(|s| s.x == x && s.y == y) {
+            Some(i) => counts[i] += 1,
+            None => {
+                series.push(Series { label, x, y });
+                counts.push(1);
+            }
+        }
+    }
+    for (s, n) in series.iter_mut().zip(&counts) {
+        if *n > 1 {
+            s.label = format!("{} (same for {n} cases)", s.label);
+        }
+    }
+    if series.is_empty() {
+        return Err(Error::invalid("no selection traces in curves.csv"));
+    }
+    let norm = ctx
+        .config
+        .defaults
+        .error_norm
+        .map(|n| format!("{n:?}").to_lowercase())
+        .unwrap_or_else(|| "paper".into());
+    let chart = LineChart {
+        title: spec
+            .title
+            .clone()
+            .unwrap_or_else(|| format!("{}: selection error vs number of key points", ctx.title)),
+        caption: Some(format!(
+            "{}; stage 1 of Algorithm 1, one line per case",
+            ctx.caption
+        )),
+        x_label: "number of key points".into(),
+        y_label: format!("deformation error Ê ({norm} norm, unit-sphere units)"),
+        series,
+        log_y: spec.log_y.unwrap_or(false),
+        markers: true,
+        ..Default::default()
+    };
+    save_line_chart(&chart, &ctx.stem(spec, "trace"))
+}
+
+fn line(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
+    let x = spec
+        .x
+        .clone()
+        .ok_or_else(|| Error::invalid("line plots need `x`"))?;
+    if spec.metrics.is_empty() {
+        return Err(Error::invalid("line plots need `metrics`"));
+    }
+    let mut series = Vec::new();
+    for m in &spec.metrics {
+        let mut pts: Vec<(f64, f64)> = ctx
+            .groups
+            .iter()
+            .filter_map(|(g, _)| Some((group_stats(ctx, g, &x)?.0, group_stats(ctx, g, m)?.0)))
+            .collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        if !pts.is_empty() {
+            series.push(Series {
+                label: column_label(m),
+                x: pts.iter().map(|p| p.0).collect(),
+                y: pts.iter().map(|p| p.1).collect(),
+            });
+        }
+    }
+    if series.is_empty() {
+        return Err(Error::invalid("no numbers to plot"));
+    }
+    let y_label = if spec.metrics.len() == 1 {
+        column_label(&spec.metrics[0])
+    } else {
+        "error (unit-sphere units)".into()
+    };
+    let chart = LineChart {
+        title: spec
+            .title
+            .clone()
+            .unwrap_or_else(|| format!("{}: {} vs {}", ctx.title, spec.metrics.join(", "), x)),
+        caption: Some(format!("{}; mean over cases per method", ctx.caption)),
+        x_label: column_label(&x),
+        y_label,
+        series,
+        log_y: spec.log_y.unwrap_or(false),
+        markers: true,
+        ..Default::default()
+    };
+    save_line_chart(&chart, &ctx.stem(spec, &format!("line_{x}")))
+}
+
+fn timing(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
+    let cols = [
+        ("seconds_selection", "key point selection (s)"),
+        ("seconds_fit", "fit on A (s)"),
+        (
+            "seconds_weights_per_handle",
+            "target weights per handle, SWT/h (s)",
+        ),
+        ("seconds_lbs_per_pose", "LBS per pose (s)"),
+    ];
+    let groups: Vec<&String> = ctx
+        .groups
+        .iter()
+        .map(|(g, _)| g)
+        .filter(|g| group_stats(ctx, g, "seconds_total").is_some())
+        .collect();
+    if groups.is_empty() {
+        return Err(Error::invalid("no timings in cases.csv"));
+    }
+    let mut md = String::from(
+        "| method | vertices | key points | key point selection (s) | fit (s) | SWT/h (s) | LBS per pose (ms) | total (s) |\n\
+         |---|---|---|---|---|---|---|---|\n",
+    );
+    for g in &groups {
+        let s = |c: &str| group_stats(ctx, g, c).map(|x| x.0);
+        let fmt = |x: Option<f64>, k: f64, d: usize| {
+            x.map_or("–".to_string(), |v| format!("{:.*}", d, v * k))
+        };
+        md.push_str(&format!(
+            "| {g} | {} | {} | {} | {} | {} | {} | {} |\n",
+            fmt(s("n_vertices"), 1.0, 0),
+            fmt(s("n_keypoints"), 1.0, 1),
+            fmt(s("seconds_selection"), 1.0, 3),
+            fmt(s("seconds_fit"), 1.0, 3),
+            fmt(s("seconds_weights_per_handle"), 1.0, 4),
+            fmt(s("seconds_lbs_per_pose"), 1000.0, 3),
+            fmt(s("seconds_total"), 1.0, 2),
+        ));
+    }
+    md.push_str(&format!("\nMeans over cases. {}\n", ctx.caption));
+    let stem = ctx.stem(spec, "timing");
+    super::store::write_file(&stem.with_extension("md"), md.as_bytes(), true)?;
+    let mut series = Vec::new();
+    for (c, label) in cols {
+        let v: Vec<f64> = groups
+            .iter()
+            .map(|g| group_stats(ctx, g, c).map_or(0.0, |s| s.0.max(1e-6)))
+            .collect();
+        if v.iter().any(|x| *x > 1e-6) {
+            series.push((label.to_string(), v));
+        }
+    }
+    let chart = BarChart {
+        title: spec
+            .title
+            .clone()
+            .unwrap_or_else(|| format!("{}: running times", ctx.title)),
+        caption: Some(format!("{}; mean over cases", ctx.caption)),
+        y_label: "time (s, log scale)".into(),
+        categories: groups.iter().map(|g| g.to_string()).collect(),
+        series,
+        errors: None,
+        log_y: true,
+    };
+    save_bar_chart(&chart, &stem)
+}
+
+fn keypoints_of(row: &Row) -> Vec<(usize, usize)> {
+    row.get("keypoints")
+        .map(|s| {
+            s.split(';')
+                .filter_map(|x| x.parse::<usize>().ok())
+                .enumerate()
+                .map(|(k, v)| (v, k))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+#[allow(clippy::field_reassign_with_default)]
+fn camera(c: &Config) -> Camera {
+    match c.outputs.camera {
+        Some([yaw, pitch]) => {
+            // Field by field: the camera may gain fields (e.g. the up axis),
+            // which keep their defaults.
+            let mut cam = Camera::default();
+            cam.yaw_deg = yaw;
+            cam.pitch_deg = pitch;
+            cam
+        }
+        None => Camera::default(),
+    }
+}
+
+/// Case ids (in case order) whose meshes were saved.
+fn render_cases(ctx: &Ctx) -> Vec<String> {
+    let mut ids: Vec<(usize, String)> = Vec::new();
+    for r in &ctx.rows {
+        let (Some(c), Some(id)) = (r.get("case").and_then(|c| c.parse().ok()), r.get("case_id"))
+        else {
+            continue;
+        };
+        if !ids.iter().any(|(_, x)| x == id) && ctx.dir.join("meshes").join(id).is_dir() {
+            ids.push((c, id.clone()));
+        }
+    }
+    ids.sort();
+    ids.into_iter().map(|x| x.1).collect()
+}
+
+fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
+    let fits = spec.show.as_deref() == Some("fits");
+    let ids = render_cases(ctx);
+    if ids.is_empty() {
+        return Err(Error::invalid("no saved meshes (meshes/<case>/)"));
+    }
+    for id in &ids {
+        let mdir = ctx.dir.join("meshes").join(id);
+        let rows: Vec<&Row> = ctx
+            .rows
+            .iter()
+            .filter(|r| {
+                r.get("case_id") == Some(id) && r.get("status").map(String::as_str) == Some("ok")
+            })
+            .collect();
+        let Some(first) = rows.first() else { continue };
+        let poses: Vec<String> = first
+            .get("poses")
+            .map(|p| p.split(';').map(String::from).collect())
+            .unwrap_or_default();
+        let source = read_mesh(&mdir.join("source.ply"))?;
+        let target = read_mesh(&mdir.join("target.ply"))?;
+        // One representative method per group (the first with saved meshes).
+        let mut shown: Vec<(&String, &Row)> = Vec::new();
+        for (g, methods) in &ctx.groups {
+            if let Some(r) = methods
+                .iter()
+                .find_map(|m| rows.iter().find(|r| r.get("method") == Some(m)))
+            {
+                if r.get("kind").map(String::as_str) != Some("clustering") {
+                    shown.push((g, r));
+                }
+            }
+        }
+        if shown.is_empty() {
+            continue;
+        }
+        for pose in &poses {
+            let deformed_path = mdir.join(format!("deformed_{pose}.ply"));
+            if !deformed_path.exists() {
+                continue;
+            }
+            let deformed = read_mesh(&deformed_path)?;
+            let reference: Option<Mesh> = if fits {
+                Some(deformed.clone())
+            } else {
+                let p = mdir.join(format!("truth_{pose}.ply"));
+                p.exists().then(|| read_mesh(&p)).transpose()?
+            };
+            let scale = ErrorScale::of_reference(if fits { &source } else { &target })?.unit_sphere;
+            let kp0 = keypoints_of(shown[0].1);
+            let mut ps = vec![
+                Panel {
+                    label: "source A".into(),
+                    mesh: source.clone(),
+                    coloring: Coloring::Plain,
+                    keypoints: kp0,
+                },
+                Panel {
+                    label: format!("deformed source A′ (pose {pose})"),
+                    mesh: deformed.clone(),
+                    coloring: Coloring::Plain,
+                    keypoints: Vec::new(),
+                },
+            ];
+            if !fits {
+                ps.push(Panel {
+                    label: "target B".into(),
+                    mesh: target.clone(),
+                    coloring: Coloring::Plain,
+                    keypoints: Vec::new(),
+                });
+                if let Some(t) = &reference {
+                    ps.push(Panel {
+                        label: "ground truth B′".into(),
+                        mesh: t.clone(),
+                        coloring: Coloring::Plain,
+                        keypoints: Vec::new(),
+                    });
+                }
+            }
+            let mut results: Vec<ResultPanel> = Vec::new();
+            for (g, r) in &shown {
+                let m = &r["method"];
+                let file = if fits { "fit" } else { "result" };
+                let p = mdir.join(m).join(format!("{file}_{pose}.ply"));
+                if !p.exists() {
+                    continue;
+                }
+                let mesh = read_mesh(&p)?;
+                let err = match &reference {
+                    Some(t) => vertex_errors(mesh.vertices(), t.vertices())?
+                        .into_iter()
+                        .map(|e| e * scale)
+                        .collect(),
+                    None => Vec::new(),
+                };
+                results.push((g.to_string(), mesh, err, keypoints_of(r)));
+            }
+            if results.is_empty() {
+                continue;
+            }
+            let mut all: Vec<f64> = results.iter().flat_map(|r| r.2.iter().copied()).collect();
+            all.sort_by(f64::total_cmp);
+            let hi = all
+                .get(((all.len() as f64) * 0.98) as usize)
+                .copied()
+                .unwrap_or(0.0)
+                .max(1e-6);
+            for (g, mesh, err, kp) in results {
+                let coloring = if err.is_empty() {
+                    Coloring::Plain
+                } else {
+                    Coloring::Scalar {
+                        values: err,
+                        lo: 0.0,
+                        hi,
+                        label: if fits {
+                            "error to A′ (unit-sphere units of A)".into()
+                        } else {
+                            "error to ground truth (unit-sphere units of B)".into()
+                        },
+                    }
+                };
+                ps.push(Panel {
+                    label: g,
+                    mesh,
+                    coloring,
+                    keypoints: kp,
+                });
+            }
+            let fig = Figure {
+                title: spec.title.clone().unwrap_or_else(|| {
+                    if fits {
+                        format!(
+                            "{}: deformed source per method (case {id}, pose {pose})",
+                            ctx.title
+                        )
+                    } else {
+                        format!("{}: transfer results (case {id}, pose {pose})", ctx.title)
+                    }
+                }),
+                caption: Some(format!(
+                    "{}; {}; spheres: key points (on A: those of {}); colour: per-vertex error",
+                    ctx.caption,
+                    if fits {
+                        "right: the deformed source D_S(A) of each method"
+                    } else {
+                        "right: the transferred B′ of each method"
+                    },
+                    shown[0].0
+                )),
+                panels: ps,
+                camera: camera(&ctx.config),
+                panel_size: (260, 360),
+            };
+            let default = if fits { "fits" } else { "panels" };
+            let stem = ctx.stem(spec, default);
+            let stem = stem.with_file_name(format!(
+                "{}_{id}_{pose}",
+                stem.file_name()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default()
+            ));
+            save_figure(&fig, &stem)?;
+        }
+    }
+    Ok(())
+}
+
+/// Spreads label ids over [0, 1] so that neighbouring ids get distinct colours.
+fn label_value(l: usize) -> f64 {
+    (l as f64 * 0.618_033_988_75).fract()
+}
+
+fn read_labels(path: &Path) -> Result<Vec<usize>> {
+    read_csv(path)?
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            r.get("cluster")
+                .or_else(|| r.get("label"))
+                .and_then(|v| v.parse().ok())
+                .ok_or_else(|| Error::parse(path, format!("row {}", i + 2), "expected a label"))
+        })
+        .collect()
+}
+
+fn clusters(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
+    let ids = render_cases(ctx);
+    let mut made = 0;
+    for id in &ids {
+        let mdir = ctx.dir.join("meshes").join(id);
+        let source = read_mesh(&mdir.join("source.ply"))?;
+        let mut ps = Vec::new();
+        let lp = mdir.join("labels.csv");
+        if lp.exists() {
+            let l = read_labels(&lp)?;
+            ps.push(Panel {
+                label: "true bones".into(),
+                mesh: source.clone(),
+                coloring: Coloring::Scalar {
+                    values: l.iter().map(|&x| label_value(x)).collect(),
+                    lo: 0.0,
+                    hi: 1.0,
+                    label: "segment (colours are arbitrary)".into(),
+                },
+                keypoints: Vec::new(),
+            });
+        }
+        for (g, methods) in &ctx.groups {
+            let Some(m) = methods
+                .iter()
+                .find(|m| mdir.join(m.as_str()).join("clusters.csv").exists())
+            else {
+                continue;
+            };
+            let l = read_labels(&mdir.join(m.as_str()).join("clusters.csv"))?;
+            let row = ctx
+                .rows
+                .iter()
+                .find(|r| r.get("case_id") == Some(id) && r.get("method") == Some(m));
+            let score = row
+                .and_then(|r| f(r, "ari"))
+                .map(|a| format!(" (ARI {a:.2})"))
+                .unwrap_or_default();
+            ps.push(Panel {
+                label: format!("{g}{score}"),
+                mesh: source.clone(),
+                coloring: Coloring::Scalar {
+                    values: l.iter().map(|&x| label_value(x)).collect(),
+                    lo: 0.0,
+                    hi: 1.0,
+                    label: "segment (colours are arbitrary)".into(),
+                },
+                keypoints: Vec::new(),
+            });
+        }
+        if ps.len() < 2 {
+            continue;
+        }
+        let fig = Figure {
+            title: spec
+                .title
+                .clone()
+                .unwrap_or_else(|| format!("{}: rotation groups (case {id})", ctx.title)),
+            caption: Some(ctx.caption.clone()),
+            panels: ps,
+            camera: camera(&ctx.config),
+            panel_size: (260, 360),
+        };
+        let stem = ctx.stem(spec, "clusters");
+        let stem = stem.with_file_name(format!(
+            "{}_{id}",
+            stem.file_name()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        ));
+        save_figure(&fig, &stem)?;
+        made += 1;
+    }
+    if made == 0 {
+        return Err(Error::invalid(
+            "no saved cluster labels (meshes/<case>/<method>/clusters.csv)",
+        ));
+    }
+    Ok(())
+}

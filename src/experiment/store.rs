@@ -1,0 +1,611 @@
+//! The result store of one experiment folder.
+//!
+//! ```text
+//! DIR/config.json          the hashed part of the config + its hash (written first)
+//! DIR/cases/<case>/<method>.json   one finished case × method (atomic, never overwritten)
+//! DIR/meshes/<case>/...    meshes saved for renders: source, deformed, target, truth, and
+//!                          the results of the first method of each group ([outputs] render_*)
+//! DIR/manifest.json        config, seed, crate version, git revision, threads, timings
+//! DIR/cases.csv            one row per case × method, rebuilt from cases/ in case order
+//! DIR/curves.csv           case,method,curve,x,y (long format)
+//! DIR/summary.csv          method,group,metric,n,mean,std,min,median,max
+//! DIR/plots/               PNG + SVG
+//! ```
+//!
+//! **Atomicity.** A result file is written to a unique temporary name in the
+//! same folder and then hard-linked to its final name, which fails if the
+//! name exists: a finished result is never overwritten, and a process
+//! killed at any moment leaves either no file or a complete one (temporary
+//! files are removed on the next start). Tables are rebuilt from the result
+//! files only, so a resumed, a sharded+merged and an uninterrupted run give
+//! the same `cases.csv` (timing columns aside).
+//!
+//! **Numbers** are stored as text at the moment they are computed (10
+//! significant digits, shortest form), so rebuilding a table is pure text.
+
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use serde::{Deserialize, Serialize};
+
+use crate::{Error, Result};
+
+/// Columns of `cases.csv`, in order. Columns whose name starts with
+/// `seconds_` are timings (the only columns that differ between two runs of
+/// one config).
+pub const CASE_COLUMNS: &[&str] = &[
+    "case",
+    "case_id",
+    "source",
+    "target",
+    "reference_pose",
+    "poses",
+    "method",
+    "group",
+    "kind",
+    "status",
+    "n_vertices",
+    "n_keypoints",
+    "keypoints",
+    "n_selection_poses",
+    "selection_error",
+    "selection_evaluations",
+    "fit_error_unit",
+    "procrustes",
+    "err_mean_unit",
+    "err_rms_unit",
+    "err_max_unit",
+    "err_mean_area",
+    "err_rms_area",
+    "err_max_area",
+    "arap_energy",
+    "arap_energy_truth",
+    "distortion_area",
+    "distortion_edge",
+    "n_clusters",
+    "ari",
+    "purity",
+    "rigidity_unit",
+    "seconds_selection",
+    "seconds_fit",
+    "seconds_weights",
+    "seconds_weights_per_handle",
+    "seconds_lbs",
+    "seconds_lbs_per_pose",
+    "seconds_refine",
+    "seconds_metrics",
+    "seconds_total",
+];
+
+/// Whether a column is a timing column.
+pub fn is_timing(column: &str) -> bool {
+    column.starts_with("seconds_")
+}
+
+/// A number as stored: 10 significant digits, shortest form; empty for
+/// non-finite values.
+pub fn num(x: f64) -> String {
+    if !x.is_finite() {
+        return String::new();
+    }
+    let r: f64 = format!("{x:.9e}").parse().unwrap_or(x);
+    format!("{r}")
+}
+
+/// A timing in seconds (microsecond resolution).
+pub fn secs(x: f64) -> String {
+    format!("{x:.6}")
+}
+
+/// One curve of a case × method (`x`, `y` stored as text).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Curve {
+    pub name: String,
+    pub x: Vec<String>,
+    pub y: Vec<String>,
+}
+
+impl Curve {
+    pub fn new(name: &str, x: &[f64], y: &[f64]) -> Self {
+        Curve {
+            name: name.to_string(),
+            x: x.iter().map(|v| num(*v)).collect(),
+            y: y.iter().map(|v| num(*v)).collect(),
+        }
+    }
+}
+
+/// A finished case × method.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CaseResult {
+    pub case: usize,
+    pub case_id: String,
+    pub method: String,
+    /// Column → cell (columns of [`CASE_COLUMNS`]; missing = empty).
+    pub cells: BTreeMap<String, String>,
+    pub curves: Vec<Curve>,
+}
+
+impl CaseResult {
+    /// Sets a cell.
+    pub fn set(&mut self, column: &str, value: impl Into<String>) {
+        debug_assert!(CASE_COLUMNS.contains(&column), "unknown column {column}");
+        self.cells.insert(column.to_string(), value.into());
+    }
+
+    /// The CSV row in [`CASE_COLUMNS`] order.
+    pub fn row(&self) -> Vec<String> {
+        CASE_COLUMNS
+            .iter()
+            .map(|c| self.cells.get(*c).cloned().unwrap_or_default())
+            .collect()
+    }
+}
+
+static TMP_COUNTER: AtomicU64 = AtomicU64::new(0);
+
+/// A temporary name next to `path` unique to this process and call.
+fn tmp_name(path: &Path) -> PathBuf {
+    let n = TMP_COUNTER.fetch_add(1, Ordering::Relaxed);
+    let name = path
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    path.with_file_name(format!(".{name}.{}.{n}.tmp", std::process::id()))
+}
+
+/// Writes `bytes` to a temporary file, syncs it and moves it to `path`.
+/// `clobber = false`: fails with `Ok(false)` (file left alone) if `path`
+/// exists. Returns whether the file was written.
+pub fn write_file(path: &Path, bytes: &[u8], clobber: bool) -> Result<bool> {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    }
+    let tmp = tmp_name(path);
+    {
+        let mut f = std::fs::File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
+        f.write_all(bytes).map_err(|e| Error::io(&tmp, e))?;
+        f.sync_all().map_err(|e| Error::io(&tmp, e))?;
+    }
+    if clobber {
+        std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))?;
+        return Ok(true);
+    }
+    let linked = std::fs::hard_link(&tmp, path);
+    let _ = std::fs::remove_file(&tmp);
+    match linked {
+        Ok(()) => Ok(true),
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Ok(false),
+        Err(e) => Err(Error::io(path, e)),
+    }
+}
+
+/// Removes leftover temporary files (`.*.tmp`) under `dir`, recursively.
+pub fn remove_temporaries(dir: &Path) -> Result<usize> {
+    let mut n = 0;
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return Ok(0);
+    };
+    for e in rd {
+        let e = e.map_err(|e| Error::io(dir, e))?;
+        let p = e.path();
+        let name = e.file_name().to_string_lossy().into_owned();
+        if p.is_dir() {
+            n += remove_temporaries(&p)?;
+        } else if name.starts_with('.') && name.ends_with(".tmp") {
+            std::fs::remove_file(&p).map_err(|e| Error::io(&p, e))?;
+            n += 1;
+        }
+    }
+    Ok(n)
+}
+
+/// The store of one experiment folder.
+#[derive(Clone, Debug)]
+pub struct Store {
+    pub dir: PathBuf,
+}
+
+/// Content of `DIR/config.json`: the config the stored results belong to.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct StoredConfig {
+    pub hash: String,
+    pub config: serde_json::Value,
+}
+
+impl Store {
+    pub fn new(dir: &Path) -> Self {
+        Store {
+            dir: dir.to_path_buf(),
+        }
+    }
+
+    pub fn result_path(&self, case_id: &str, method: &str) -> PathBuf {
+        self.dir
+            .join("cases")
+            .join(case_id)
+            .join(format!("{method}.json"))
+    }
+
+    pub fn mesh_dir(&self, case_id: &str) -> PathBuf {
+        self.dir.join("meshes").join(case_id)
+    }
+
+    pub fn config_path(&self) -> PathBuf {
+        self.dir.join("config.json")
+    }
+
+    /// Binds the folder to a config: writes `config.json` if absent, else
+    /// checks that it holds the same hash. A mismatch is an error naming the
+    /// keys that differ.
+    pub fn bind(&self, stored: &StoredConfig) -> Result<()> {
+        let path = self.config_path();
+        let bytes = serde_json::to_vec_pretty(stored)
+            .map_err(|e| Error::invalid(format!("config to JSON: {e}")))?;
+        if write_file(&path, &bytes, false)? {
+            return Ok(());
+        }
+        let old = self.read_config()?;
+        if old.hash == stored.hash {
+            return Ok(());
+        }
+        let mut diffs = Vec::new();
+        json_diff("", &old.config, &stored.config, &mut diffs);
+        Err(Error::invalid(format!(
+            "{} holds results of another configuration (config hash {} there, {} now; \
+             differing keys: {}). Use another --out folder, or delete that folder to start over",
+            self.dir.display(),
+            old.hash,
+            stored.hash,
+            if diffs.is_empty() {
+                "none found".to_string()
+            } else {
+                diffs.join(", ")
+            }
+        )))
+    }
+
+    pub fn read_config(&self) -> Result<StoredConfig> {
+        let path = self.config_path();
+        let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+        serde_json::from_str(&text).map_err(|e| Error::parse(&path, "JSON", e.to_string()))
+    }
+
+    /// Whether the result of `case_id` × `method` is stored.
+    pub fn has(&self, case_id: &str, method: &str) -> bool {
+        self.result_path(case_id, method).is_file()
+    }
+
+    /// Stores a result (never overwriting one). Returns false if it existed.
+    pub fn put(&self, r: &CaseResult) -> Result<bool> {
+        let bytes =
+            serde_json::to_vec(r).map_err(|e| Error::invalid(format!("result to JSON: {e}")))?;
+        write_file(&self.result_path(&r.case_id, &r.method), &bytes, false)
+    }
+
+    pub fn get(&self, case_id: &str, method: &str) -> Result<CaseResult> {
+        let path = self.result_path(case_id, method);
+        let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+        serde_json::from_str(&text).map_err(|e| Error::parse(&path, "JSON", e.to_string()))
+    }
+
+    /// Every stored result, sorted by (case index, method order).
+    pub fn all(&self, method_order: &[String]) -> Result<Vec<CaseResult>> {
+        let mut out = Vec::new();
+        let root = self.dir.join("cases");
+        let Ok(rd) = std::fs::read_dir(&root) else {
+            return Ok(out);
+        };
+        let mut dirs: Vec<PathBuf> = rd
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.is_dir())
+            .collect();
+        dirs.sort();
+        for d in dirs {
+            let rd = std::fs::read_dir(&d).map_err(|e| Error::io(&d, e))?;
+            let mut files: Vec<PathBuf> = rd
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| {
+                    p.extension().is_some_and(|x| x == "json")
+                        && !p
+                            .file_name()
+                            .is_some_and(|n| n.to_string_lossy().starts_with('.'))
+                })
+                .collect();
+            files.sort();
+            for f in files {
+                let text = std::fs::read_to_string(&f).map_err(|e| Error::io(&f, e))?;
+                let r: CaseResult = serde_json::from_str(&text)
+                    .map_err(|e| Error::parse(&f, "JSON", e.to_string()))?;
+                out.push(r);
+            }
+        }
+        let pos = |m: &str| {
+            method_order
+                .iter()
+                .position(|x| x == m)
+                .unwrap_or(usize::MAX)
+        };
+        out.sort_by(|a, b| {
+            (a.case, pos(&a.method), &a.method).cmp(&(b.case, pos(&b.method), &b.method))
+        });
+        Ok(out)
+    }
+
+    /// Rebuilds cases.csv, curves.csv and summary.csv from the stored results.
+    pub fn write_tables(&self, results: &[CaseResult]) -> Result<()> {
+        write_file(&self.dir.join("cases.csv"), &cases_csv(results)?, true)?;
+        write_file(&self.dir.join("curves.csv"), &curves_csv(results)?, true)?;
+        write_file(&self.dir.join("summary.csv"), &summary_csv(results)?, true)?;
+        Ok(())
+    }
+}
+
+fn json_diff(prefix: &str, a: &serde_json::Value, b: &serde_json::Value, out: &mut Vec<String>) {
+    use serde_json::Value;
+    match (a, b) {
+        (Value::Object(x), Value::Object(y)) => {
+            let mut keys: Vec<&String> = x.keys().chain(y.keys()).collect();
+            keys.sort();
+            keys.dedup();
+            for k in keys {
+                let p = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
+                match (x.get(k), y.get(k)) {
+                    (Some(u), Some(v)) => json_diff(&p, u, v, out),
+                    _ => out.push(p),
+                }
+            }
+        }
+        (Value::Array(x), Value::Array(y)) if x.len() == y.len() => {
+            for (i, (u, v)) in x.iter().zip(y).enumerate() {
+                json_diff(&format!("{prefix}[{i}]"), u, v, out);
+            }
+        }
+        _ if a != b => out.push(if prefix.is_empty() {
+            "(root)".to_string()
+        } else {
+            prefix.to_string()
+        }),
+        _ => {}
+    }
+}
+
+fn csv_err(e: impl std::fmt::Display) -> Error {
+    Error::invalid(format!("CSV: {e}"))
+}
+
+fn finish(w: csv::Writer<Vec<u8>>) -> Result<Vec<u8>> {
+    w.into_inner().map_err(csv_err)
+}
+
+/// `cases.csv` bytes.
+pub fn cases_csv(results: &[CaseResult]) -> Result<Vec<u8>> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record(CASE_COLUMNS).map_err(csv_err)?;
+    for r in results {
+        w.write_record(r.row()).map_err(csv_err)?;
+    }
+    finish(w)
+}
+
+/// `curves.csv` bytes: `case,case_id,method,curve,x,y`.
+pub fn curves_csv(results: &[CaseResult]) -> Result<Vec<u8>> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record(["case", "case_id", "method", "curve", "x", "y"])
+        .map_err(csv_err)?;
+    for r in results {
+        for c in &r.curves {
+            for (x, y) in c.x.iter().zip(&c.y) {
+                w.write_record([
+                    r.case.to_string().as_str(),
+                    &r.case_id,
+                    &r.method,
+                    &c.name,
+                    x,
+                    y,
+                ])
+                .map_err(csv_err)?;
+            }
+        }
+    }
+    finish(w)
+}
+
+/// Numeric columns summarised in summary.csv.
+pub fn summary_columns() -> impl Iterator<Item = &'static str> {
+    CASE_COLUMNS.iter().copied().filter(|c| {
+        !matches!(
+            *c,
+            "case"
+                | "case_id"
+                | "source"
+                | "target"
+                | "reference_pose"
+                | "poses"
+                | "method"
+                | "group"
+                | "kind"
+                | "status"
+                | "keypoints"
+                | "procrustes"
+        )
+    })
+}
+
+/// Mean, std (population), min, median, max of values (in order).
+pub fn describe(v: &[f64]) -> (f64, f64, f64, f64, f64) {
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n;
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let k = s.len();
+    let median = if k % 2 == 1 {
+        s[k / 2]
+    } else {
+        0.5 * (s[k / 2 - 1] + s[k / 2])
+    };
+    (mean, var.sqrt(), s[0], median, s[k - 1])
+}
+
+/// `summary.csv` bytes: per method (in order of first appearance) and numeric
+/// column, statistics over the cases where the cell is a number.
+pub fn summary_csv(results: &[CaseResult]) -> Result<Vec<u8>> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record([
+        "method", "group", "metric", "n", "n_failed", "mean", "std", "min", "median", "max",
+    ])
+    .map_err(csv_err)?;
+    let mut methods: Vec<(String, String)> = Vec::new();
+    for r in results {
+        let g = r.cells.get("group").cloned().unwrap_or_default();
+        if !methods.iter().any(|(m, _)| *m == r.method) {
+            methods.push((r.method.clone(), g));
+        }
+    }
+    for (m, g) in &methods {
+        let rows: Vec<&CaseResult> = results.iter().filter(|r| r.method == *m).collect();
+        let failed = rows
+            .iter()
+            .filter(|r| r.cells.get("status").is_some_and(|s| s != "ok"))
+            .count();
+        for col in summary_columns() {
+            let v: Vec<f64> = rows
+                .iter()
+                .filter_map(|r| r.cells.get(col).and_then(|s| s.parse::<f64>().ok()))
+                .filter(|x| x.is_finite())
+                .collect();
+            if v.is_empty() {
+                continue;
+            }
+            let (mean, std, min, median, max) = describe(&v);
+            let cell = |x: f64| {
+                if is_timing(col) {
+                    secs(x)
+                } else {
+                    num(x)
+                }
+            };
+            w.write_record([
+                m.as_str(),
+                g.as_str(),
+                col,
+                &v.len().to_string(),
+                &failed.to_string(),
+                &cell(mean),
+                &cell(std),
+                &cell(min),
+                &cell(median),
+                &cell(max),
+            ])
+            .map_err(csv_err)?;
+        }
+    }
+    finish(w)
+}
+
+/// The git revision of the checkout at or above `start`, read from `.git`
+/// without running git (handles worktrees, packed refs); "unknown" if none.
+pub fn git_revision(start: &Path) -> String {
+    fn read(p: &Path) -> Option<String> {
+        std::fs::read_to_string(p)
+            .ok()
+            .map(|s| s.trim().to_string())
+    }
+    let mut dir = Some(start);
+    while let Some(d) = dir {
+        let dotgit = d.join(".git");
+        let git_dir = if dotgit.is_dir() {
+            Some(dotgit)
+        } else if dotgit.is_file() {
+            read(&dotgit)
+                .and_then(|s| s.strip_prefix("gitdir:").map(|x| x.trim().to_string()))
+                .map(|g| {
+                    let p = PathBuf::from(g);
+                    if p.is_absolute() {
+                        p
+                    } else {
+                        d.join(p)
+                    }
+                })
+        } else {
+            None
+        };
+        if let Some(g) = git_dir {
+            let common = read(&g.join("commondir"))
+                .map(|c| {
+                    let p = PathBuf::from(c);
+                    if p.is_absolute() {
+                        p
+                    } else {
+                        g.join(p)
+                    }
+                })
+                .unwrap_or_else(|| g.clone());
+            let Some(head) = read(&g.join("HEAD")) else {
+                return "unknown".into();
+            };
+            let Some(r) = head.strip_prefix("ref:").map(str::trim) else {
+                return head;
+            };
+            for base in [&g, &common] {
+                if let Some(h) = read(&base.join(r)) {
+                    return h;
+                }
+            }
+            if let Some(packed) = read(&common.join("packed-refs")) {
+                for line in packed.lines() {
+                    if let Some((h, name)) = line.split_once(' ') {
+                        if name == r {
+                            return h.to_string();
+                        }
+                    }
+                }
+            }
+            return "unknown".into();
+        }
+        dir = d.parent();
+    }
+    "unknown".into()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_are_stable_text() {
+        assert_eq!(num(0.1 + 0.2), "0.3");
+        assert_eq!(num(1.0), "1");
+        assert_eq!(num(f64::NAN), "");
+        assert_eq!(num(0.07389238479234), "0.07389238479");
+    }
+
+    #[test]
+    fn no_clobber_writes() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("a/b.json");
+        assert!(write_file(&p, b"one", false).unwrap());
+        assert!(!write_file(&p, b"two", false).unwrap());
+        assert_eq!(std::fs::read(&p).unwrap(), b"one");
+        assert!(write_file(&p, b"three", true).unwrap());
+        assert_eq!(std::fs::read(&p).unwrap(), b"three");
+        // No temporaries left behind.
+        assert_eq!(remove_temporaries(d.path()).unwrap(), 0);
+    }
+
+    #[test]
+    fn git_revision_of_this_checkout_is_a_hash_or_unknown() {
+        let r = git_revision(Path::new(env!("CARGO_MANIFEST_DIR")));
+        assert!(
+            r == "unknown" || (r.len() == 40 && r.bytes().all(|b| b.is_ascii_hexdigit())),
+            "{r}"
+        );
+    }
+}

@@ -1,0 +1,196 @@
+//! Config errors name the file, the key and what was expected.
+
+use std::path::Path;
+use std::process::Command;
+
+use deformlab::experiment::{load_config, parse_config, Method};
+
+const BIN: &str = env!("CARGO_BIN_EXE_deformlab");
+
+const GOOD: &str = r#"
+name = "ok"
+[dataset.synthetic]
+subjects = 2
+poses = 3
+resolution = 1
+[defaults]
+mode = "fast"
+n_candidates = 12
+[[methods]]
+name = "auto"
+kind = "bdt"
+[[methods]]
+name = "random"
+kind = "bdt_random"
+count = 4
+seed = 9
+"#;
+
+fn error_of(text: &str) -> String {
+    match parse_config(text, Path::new("dir/exp.toml")) {
+        Ok(_) => panic!("config accepted:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn good_config_resolves_methods_and_defaults() {
+    let c = parse_config(GOOD, Path::new("exp.toml")).unwrap();
+    assert_eq!(c.methods.len(), 2);
+    match &c.methods[1].method {
+        Method::BdtRandom {
+            pipeline,
+            count,
+            seed,
+            ..
+        } => {
+            assert_eq!((*count, *seed), (4, 9));
+            assert_eq!(pipeline.keypoints.n_candidates, 12);
+            assert_eq!(pipeline.keypoints.seed, 9);
+        }
+        m => panic!("{m:?}"),
+    }
+    assert_eq!(c.methods[0].method.pipeline().keypoints.n_candidates, 12);
+    assert_eq!(c.methods[0].method.pipeline().keypoints.seed, 0);
+}
+
+#[test]
+fn unknown_key_is_named_with_file_and_line() {
+    let e = error_of(&GOOD.replace("count = 4", "count = 4\ncolour = \"red\""));
+    assert!(e.contains("dir/exp.toml"), "{e}");
+    assert!(e.contains("methods[1].colour"), "{e}");
+    assert!(e.contains("unknown field `colour`"), "{e}");
+    assert!(e.contains("line 17"), "{e}");
+    let e = error_of(&GOOD.replace("[defaults]", "[defaults]\nn_candidate = 3"));
+    assert!(
+        e.contains("defaults.n_candidate") && e.contains("expected one of"),
+        "{e}"
+    );
+    let e = error_of(&format!("{GOOD}\n[metrics]\nprocrustes = true\nbins = 3\n"));
+    assert!(e.contains("metrics.bins"), "{e}");
+}
+
+#[test]
+fn wrong_type_names_the_key_and_the_expected_type() {
+    let e = error_of(&GOOD.replace("n_candidates = 12", "n_candidates = \"many\""));
+    assert!(e.contains("dir/exp.toml"), "{e}");
+    assert!(e.contains("defaults.n_candidates"), "{e}");
+    assert!(
+        e.contains("invalid type: string \"many\", expected usize"),
+        "{e}"
+    );
+    let e = error_of(&GOOD.replace("mode = \"fast\"", "mode = \"quick\""));
+    assert!(
+        e.contains("defaults.mode") && e.contains("`exact`") && e.contains("`fast`"),
+        "{e}"
+    );
+    let e = error_of(&GOOD.replace("kind = \"bdt_random\"", "kind = \"sumner\""));
+    assert!(
+        e.contains("methods[1].kind") && e.contains("bdt_extremity"),
+        "{e}"
+    );
+}
+
+#[test]
+fn missing_dataset_path_is_named() {
+    let t = tempfile::tempdir().unwrap();
+    let text = GOOD.replace(
+        "[dataset.synthetic]\nsubjects = 2\nposes = 3\nresolution = 1",
+        "[dataset.faust]\npath = \"no/such/folder\"",
+    );
+    let p = t.path().join("exp.toml");
+    std::fs::write(&p, &text).unwrap();
+    let e = load_config(&p).unwrap_err().to_string();
+    assert!(e.contains(&p.display().to_string()), "{e}");
+    assert!(
+        e.contains("dataset.faust.path") && e.contains("does not exist"),
+        "{e}"
+    );
+    assert!(e.contains("no/such/folder"), "{e}");
+    // Same through the command line, exit code 2, nothing written.
+    let out = t.path().join("out");
+    let o = Command::new(BIN)
+        .args(["run", p.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("dataset.faust.path") && err.contains("exp.toml"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn semantic_errors_name_the_key() {
+    let e = error_of(&GOOD.replace("count = 4", "count = 4\nstrategy = \"eccentricity\""));
+    assert!(
+        e.contains("methods[1].strategy") && e.contains("does not apply"),
+        "{e}"
+    );
+    let e = error_of(&GOOD.replace("count = 4\n", ""));
+    assert!(
+        e.contains("methods[1].count") && e.contains("expected the number"),
+        "{e}"
+    );
+    let e = error_of(&GOOD.replace("name = \"random\"", "name = \"auto\""));
+    assert!(e.contains("methods[1].name") && e.contains("twice"), "{e}");
+    let e = error_of(&GOOD.replace("name = \"ok\"", "name = \"../up\""));
+    assert!(e.contains("key `name`"), "{e}");
+    let e = error_of(&GOOD.replace("resolution = 1", "resolution = 7"));
+    assert!(e.contains("dataset.synthetic.resolution"), "{e}");
+    let e = error_of(&format!("{GOOD}\n[dataset.faust]\npath = \".\"\n"));
+    assert!(e.contains("exactly one"), "{e}");
+    let e = error_of(&format!(
+        "{GOOD}\n[[outputs.plots]]\nkind = \"bars\"\nmetrics = [\"err_mean\"]\n"
+    ));
+    assert!(
+        e.contains("outputs.plots[0]") && e.contains("err_mean_unit"),
+        "{e}"
+    );
+}
+
+#[test]
+fn unknown_subject_in_cases_is_named() {
+    let t = tempfile::tempdir().unwrap();
+    let p = t.path().join("exp.toml");
+    std::fs::write(
+        &p,
+        GOOD.replace("[defaults]", "[cases]\nsources = [7]\n[defaults]"),
+    )
+    .unwrap();
+    let out = t.path().join("out");
+    let o = Command::new(BIN)
+        .args(["run", p.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("cases.sources") && err.contains("\"7\""),
+        "{err}"
+    );
+}
+
+#[test]
+fn every_shipped_config_parses() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("experiments");
+    let mut n = 0;
+    for sub in [dir.clone(), dir.join("real")] {
+        for e in std::fs::read_dir(&sub).unwrap() {
+            let p = e.unwrap().path();
+            if p.extension().is_some_and(|x| x == "toml") {
+                match load_config(&p) {
+                    Ok(_) => n += 1,
+                    // Real-data variants need ../shared/data.
+                    Err(e) if sub.ends_with("real") && e.to_string().contains("does not exist") => {
+                        eprintln!("SKIP {}: {e}", p.display())
+                    }
+                    Err(e) => panic!("{}: {e}", p.display()),
+                }
+            }
+        }
+    }
+    assert!(n >= 8, "{n} configs");
+}
