@@ -194,3 +194,21 @@ fn every_shipped_config_parses() {
     }
     assert!(n >= 8, "{n} configs");
 }
+
+#[test]
+fn every_shipped_config_loads() {
+    // The configs of experiments/ and experiments/real/ (paths inside them
+    // are only resolved when a run starts, so this needs no data).
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("experiments");
+    let mut n = 0;
+    for dir in [root.clone(), root.join("real")] {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let p = entry.unwrap().path();
+            if p.extension().is_some_and(|e| e == "toml") {
+                load_config(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+                n += 1;
+            }
+        }
+    }
+    assert!(n >= 16, "only {n} configs found");
+}
