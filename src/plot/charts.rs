@@ -156,6 +156,41 @@ fn legend_size<DB: DrawingBackend>(
     Ok((w, h))
 }
 
+/// Draws the legend where asked, or in the first plot corner free of
+/// `obstacles`; returns where it went (`None`: nowhere free).
+#[allow(clippy::too_many_arguments)]
+fn place_legend<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    entries: &[LegendEntry],
+    legend: Option<LegendPos>,
+    plot: Rect,
+    lsize: (f64, f64),
+    obstacles: &[Rect],
+    legend_x: Option<f64>,
+    m: Metrics,
+) -> DResult<Option<LegendPos>> {
+    let chosen = match legend {
+        Some(l) => Some(l),
+        None => free_corner(plot, lsize, obstacles, m).map(LegendPos::Inside),
+    };
+    match chosen {
+        Some(LegendPos::Inside(corner)) => {
+            draw_legend(root, entries, corner_rect(plot, lsize, corner, m), m)?;
+        }
+        Some(LegendPos::Outside) => {
+            let x0 = legend_x.unwrap_or(plot.2 + m.px(8.0));
+            draw_legend(
+                root,
+                entries,
+                (x0, plot.1, x0 + lsize.0, plot.1 + lsize.1),
+                m,
+            )?;
+        }
+        None => {}
+    }
+    Ok(chosen)
+}
+
 fn draw_legend<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     entries: &[LegendEntry],
@@ -655,26 +690,7 @@ fn draw_line_chart<DB: DrawingBackend>(
         }
     }
 
-    let chosen = match legend {
-        Some(l) => Some(l),
-        None => free_corner(plot, lsize, &obstacles, m).map(LegendPos::Inside),
-    };
-    match chosen {
-        Some(LegendPos::Inside(corner)) => {
-            draw_legend(root, &entries, corner_rect(plot, lsize, corner, m), m)?;
-        }
-        Some(LegendPos::Outside) => {
-            let x0 = legend_x.unwrap_or(plot.2 + m.px(8.0));
-            draw_legend(
-                root,
-                &entries,
-                (x0, plot.1, x0 + lsize.0, plot.1 + lsize.1),
-                m,
-            )?;
-        }
-        None => {}
-    }
-    Ok(chosen)
+    place_legend(root, &entries, legend, plot, lsize, &obstacles, legend_x, m)
 }
 
 /// One chart drawing routine on both backends.
@@ -1009,26 +1025,7 @@ fn draw_bar_chart<DB: DrawingBackend>(
             }
         }
     }
-    let chosen = match legend {
-        Some(l) => Some(l),
-        None => free_corner(plot, lsize, &obstacles, m).map(LegendPos::Inside),
-    };
-    match chosen {
-        Some(LegendPos::Inside(corner)) => {
-            draw_legend(root, &entries, corner_rect(plot, lsize, corner, m), m)?;
-        }
-        Some(LegendPos::Outside) => {
-            let x0 = legend_x.unwrap_or(plot.2 + m.px(8.0));
-            draw_legend(
-                root,
-                &entries,
-                (x0, plot.1, x0 + lsize.0, plot.1 + lsize.1),
-                m,
-            )?;
-        }
-        None => {}
-    }
-    Ok(chosen)
+    place_legend(root, &entries, legend, plot, lsize, &obstacles, legend_x, m)
 }
 
 /// Greedy word wrap of `text` into lines at most `width` pixels wide at
