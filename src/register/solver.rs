@@ -24,8 +24,9 @@
 //!
 //! **Regularisation.** `Γ` is singular for redundant dictionaries (e.g. the
 //! constant weight's translation atom is invisible to ARAP and to Λ), so a
-//! tiny ridge `ε‖T‖²/2` with `ε = ridge · tr(Γ)/b` is part of the energy
-//! (default `ridge = 1e-10`); reported energies include it.
+//! tiny ridge `ε‖T‖²/2` with `ε = ridge · tr(L̃)/b` is part of the energy
+//! (default `ridge = 1e-10`; it depends on the model only, not on `H`);
+//! reported energies include it.
 //!
 //! **Units.** `β_lc` weighs squared lengths against the ARAP energy (also a
 //! squared length), so it is scale-free; `β_sm` likewise (see
@@ -274,8 +275,11 @@ impl FbtSystem {
         let lam = model.dictionary().smoothness();
         let mut gamma = model.laplacian_form() + &xtx * params.beta_lc + lam * params.beta_sm;
         let mut init = &xtx * params.beta_lc + lam * params.beta_sm;
-        let ridge_eps = add_ridge(&mut gamma, params.ridge);
-        add_ridge(&mut init, params.ridge);
+        // ε from the model only, so that it does not depend on H (a system
+        // with rows removed by downdates equals one built without them).
+        let ridge_eps = params.ridge * model.laplacian_form().trace() / b.max(1) as f64;
+        add_ridge(&mut gamma, ridge_eps);
+        add_ridge(&mut init, ridge_eps);
         let gamma_chol = gamma.clone().cholesky().ok_or_else(|| {
             Error::numerical("Γ = L̃ + β_lc XᵀX + β_sm Λ is not positive definite")
         })?;
@@ -772,16 +776,10 @@ impl FbtSystem {
     }
 }
 
-fn add_ridge(a: &mut DMatrix<f64>, ridge: f64) -> f64 {
-    let b = a.nrows();
-    if b == 0 {
-        return 0.0;
-    }
-    let eps = ridge * a.trace() / b as f64;
-    for i in 0..b {
+fn add_ridge(a: &mut DMatrix<f64>, eps: f64) {
+    for i in 0..a.nrows() {
         a[(i, i)] += eps;
     }
-    eps
 }
 
 pub(crate) fn argmin(it: impl Iterator<Item = f64>) -> usize {
