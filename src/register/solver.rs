@@ -76,7 +76,7 @@ pub struct FbtParams {
 impl Default for FbtParams {
     fn default() -> Self {
         FbtParams {
-            beta_lc: 100.0,
+            beta_lc: 1000.0,
             beta_sm: 1e-4,
             scale: ScaleMode::Estimate,
             ridge: 1e-10,
