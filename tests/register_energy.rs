@@ -353,3 +353,24 @@ fn interpolation_reproduces_its_endpoints() {
     assert!(metrics::mean(&dev) < 0.5 * metrics::mean(&gap));
     let _ = Arc::strong_count(last.model());
 }
+
+#[test]
+fn sparse_initialisation_is_sparse_and_reduces_to_eq_22() {
+    let f = fixture();
+    let (rows, y) = feature_constraints(&f.meshes[9], 2);
+    let sys = FbtSystem::new(f.setup.pipeline.main().clone(), rows, FbtParams::default()).unwrap();
+    let dense = sys.initial(&y).unwrap();
+    let opts = deformlab::solve::elastic_net::CoordinateDescentOptions::default();
+    // β_sp = 0: Eq. 23 is Eq. 22.
+    let (t0, ok) = sys.sparse_initial(&y, 0.0, &opts).unwrap();
+    assert!(ok);
+    let rel = (&t0 - &dense).norm() / dense.norm();
+    assert!(rel < 1e-5, "Eq. 23 with β_sp = 0 vs Eq. 22: {rel:e}");
+    // β_sp > 0: many exact zeros, and a larger Eq. 20 energy than the dense
+    // minimiser (it minimises Eq. 20 plus the L1 term).
+    let (ts, _) = sys.sparse_initial(&y, 0.05, &opts).unwrap();
+    let zeros = ts.iter().filter(|v| **v == 0.0).count();
+    eprintln!("sparse init: {zeros} of {} coefficients are zero", ts.len());
+    assert!(zeros > ts.len() / 4);
+    assert_eq!(dense.iter().filter(|v| **v == 0.0).count(), 0);
+}

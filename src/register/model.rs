@@ -360,8 +360,54 @@ impl FbtModel {
         &self.kt_t[l]
     }
 
-    /// Deformed positions `D T` as points.
+    /// Deformed positions `D T` as points (blocked matrix product).
     pub fn positions(&self, t: &DMatrix<f64>) -> Result<Vec<Point>> {
-        Ok(crate::skin::lbs::points_from_matrix(&self.dict.apply(t)?))
+        if t.nrows() != self.size() || t.ncols() != 3 {
+            return Err(Error::invalid(format!(
+                "transformations must be {} × 3, got {} × {}",
+                self.size(),
+                t.nrows(),
+                t.ncols()
+            )));
+        }
+        Ok(crate::skin::lbs::points_from_matrix(&gemm(
+            self.dict.atoms(),
+            t,
+        )))
     }
+}
+
+/// `A B` (column-major) through matrixmultiply's blocked kernel:
+/// deterministic, single-threaded; several times faster than the generic
+/// product for tall `A`.
+pub(crate) fn gemm(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
+    assert_eq!(a.ncols(), b.nrows(), "gemm: inner dimensions differ");
+    let (m, k) = a.shape();
+    let n = b.ncols();
+    let mut c = DMatrix::zeros(m, n);
+    if m == 0 || n == 0 || k == 0 {
+        return c;
+    }
+    let (mi, ki) = (m as isize, k as isize);
+    // SAFETY: the pointers address m·k, k·n and m·n initialised f64s with
+    // the column-major strides given; `c` does not alias `a` or `b`.
+    unsafe {
+        matrixmultiply::dgemm(
+            m,
+            k,
+            n,
+            1.0,
+            a.as_ptr(),
+            1,
+            mi,
+            b.as_ptr(),
+            1,
+            ki,
+            0.0,
+            c.as_mut_ptr(),
+            1,
+            mi,
+        );
+    }
+    c
 }

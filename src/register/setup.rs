@@ -2,6 +2,17 @@
 //! every choice a field of [`FbtConfig`] (DESIGN rule 5: a method is a
 //! value; ablations change one field), and the synthetic TOSCA-style class
 //! used by tests and as the experiments' default data.
+//!
+//! The paper's variants as configurations:
+//!
+//! | variant | change from [`FbtConfig::default`] |
+//! |---|---|
+//! | example-based LBO dictionary (Table 2) | `main = StageConfig::lbo(m)` |
+//! | example-based skeleton dictionary (Table 2) | `weights: WeightChoice::Segments { .. }` (or `Biharmonic`) |
+//! | one example, same atom count (Table 2, Fig. 8 A) | `examples: DictionaryExamples::First`, LBO m' = (1+3q)m/4 |
+//! | compare to one reference shape (Fig. 8 B) | `arap_examples: DictionaryExamples::First` |
+//! | α = 1 (Fig. 8 C) | `FbtParams { scale: ScaleMode::Fixed(1.0), .. }` |
+//! | skeleton clusters (Sec. 5) | `cluster_source: ClusterSource::Segments { .. }` |
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -79,6 +90,10 @@ pub struct FbtConfig {
     pub main: StageConfig,
     /// Richer dictionary for the last stage.
     pub rich: Option<StageConfig>,
+    /// Examples the ARAP energy compares against: `All` (the paper), or
+    /// `First` only (Fig. 8 B, "comparing the deformed shape to only one
+    /// reference shape"); the dictionaries are unaffected.
+    pub arap_examples: DictionaryExamples,
     /// Number of rotation clusters r.
     pub clusters: usize,
     pub cluster_source: ClusterSource,
@@ -97,6 +112,7 @@ impl Default for FbtConfig {
                 ..StageConfig::lbo(10)
             },
             rich: Some(StageConfig::lbo(15)),
+            arap_examples: DictionaryExamples::All,
             clusters: 20,
             cluster_source: ClusterSource::MainWeights,
             seed: 0,
@@ -180,7 +196,10 @@ pub fn build(examples: &[Mesh], cfg: &FbtConfig) -> Result<FbtSetup> {
     if examples.is_empty() {
         return Err(Error::invalid("FBT needs at least one example"));
     }
-    let graph = Arc::new(ArapGraph::new(examples)?);
+    let graph = Arc::new(ArapGraph::new(match cfg.arap_examples {
+        DictionaryExamples::All => examples,
+        DictionaryExamples::First => &examples[..1],
+    })?);
     let stages: Vec<&StageConfig> = cfg
         .init
         .iter()

@@ -263,12 +263,13 @@ impl FbtSystem {
         let d = model.dictionary().atoms();
         let b = d.ncols();
         let h = rows.len();
+        // X = H D, column by column (columns of D are contiguous).
         let mut x = DMatrix::zeros(h, b);
-        for (r, row) in rows.iter().enumerate() {
-            for &(i, w) in row {
-                for c in 0..b {
-                    x[(r, c)] += w * d[(i, c)];
-                }
+        for c in 0..b {
+            let col = d.column(c);
+            let col = col.as_slice();
+            for (r, row) in rows.iter().enumerate() {
+                x[(r, c)] = row.iter().map(|&(i, w)| w * col[i]).sum();
             }
         }
         let xtx = crate::solve::dense::tr_mul(&x, &x);
