@@ -33,6 +33,7 @@
 pub mod arap;
 pub mod bench;
 pub mod bench_bdt;
+pub mod bench_fbt;
 pub mod bench_skin;
 pub mod data;
 pub mod error;
@@ -41,6 +42,7 @@ pub mod experiment;
 pub mod mesh;
 pub mod ops;
 pub mod plot;
+pub mod register;
 pub mod skin;
 pub mod solve;
 pub mod transfer;

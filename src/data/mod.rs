@@ -2,6 +2,7 @@
 
 pub mod correspondence;
 pub mod folders;
+pub mod partial;
 pub mod synthetic;
 
 pub use correspondence::{

@@ -2,7 +2,9 @@
 //! blend skinning, rotation groups.
 
 pub mod bbw;
+pub mod dictionary;
 pub mod groups;
+pub mod lbo;
 pub mod lbs;
 
 pub use groups::{rotation_groups, GroupFeatures};

@@ -9,7 +9,9 @@
 pub mod cholesky;
 pub mod dense;
 pub mod eigen;
+pub mod elastic_net;
 pub mod kmeans;
+pub mod kmedoids;
 pub mod qp;
 pub use cholesky::{Inertia, SparseCholesky, SparseLdlt, SymbolicCholesky};
 pub use eigen::{generalized_eigen, mass_diagonal, EigenOptions, Eigenpairs};

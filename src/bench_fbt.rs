@@ -1,0 +1,242 @@
+//! Timing of FBT (the paper's Table 1: precomputation, one iteration and a
+//! full solve per class) and of NICP on a partial cat.
+//!
+//! `run(quick)` reads every class of the TOSCA folder `../shared/data/tosca`
+//! (or, when absent, uses the synthetic TOSCA-style class at resolution 2
+//! and says so). Per class: the last mesh is the target, the first
+//! `q = min(paper's q, count − 1)` meshes are the examples (face lists
+//! unified by [`adopt_consistent_faces`]); the default [`FbtConfig`]
+//! (init LBO m = 4, main LBO m = 10 reduced by k-medoids to half its example
+//! atoms, rich LBO m = 15, r = 20 clusters from the main weights) and 8
+//! feature points × 10 geodesic circles. Reported medians over repetitions:
+//! precomputation (pipeline build, then factorisation for the constraints),
+//! one local/scale/global iteration of E_total in the main dictionary and of
+//! E_mn in the rich one (all q examples), and the full default schedule
+//! after precomputation (init, 5 E_total, 5 E_mn, change, 5 E_mn, and the
+//! final positions `D T`, shown separately: for the cat D is 28k × 285, a
+//! 64 MB memory-bound product). Then NICP (defaults) on a partial cat (or the synthetic
+//! class): time and mean / max relative distortion before and after.
+//! This module does file I/O (it reads meshes) and is not used by the
+//! algorithms.
+
+use std::fmt::Write as _;
+use std::time::Instant;
+
+use crate::data::partial::{feature_points, make_partial, PartialOptions};
+use crate::data::ToscaFolder;
+use crate::mesh::set::adopt_consistent_faces;
+use crate::register::{
+    build, circle_radii, feature_circle_constraints, metrics, nicp, synthetic_class, FbtConfig,
+    FbtParams, IterOptions, NicpOptions, Schedule,
+};
+use crate::{Mesh, Result};
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_unstable_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn time<T>(reps: usize, mut f: impl FnMut() -> Result<T>) -> Result<(f64, T)> {
+    let mut times = Vec::with_capacity(reps);
+    let mut last = None;
+    for _ in 0..reps.max(1) {
+        let t = Instant::now();
+        let r = f()?;
+        times.push(t.elapsed().as_secs_f64());
+        last = Some(r);
+    }
+    let last = last.ok_or_else(|| crate::Error::invalid("no repetitions"))?;
+    Ok((median(times), last))
+}
+
+/// The paper's q per class (Table 1).
+fn paper_q(class: &str) -> usize {
+    match class {
+        "woman" | "centaur" => 5,
+        "wolf" => 2,
+        "dog" | "horse" => 4,
+        "man" => 9,
+        "cat" => 6,
+        "hand" => 7,
+        _ => 4,
+    }
+}
+
+fn classes(out: &mut String, quick: bool) -> Result<Vec<(String, Vec<Mesh>)>> {
+    let dir = crate::data::shared_data_dir().map(|d| d.join("tosca"));
+    match dir {
+        Some(d) if d.is_dir() => {
+            let folder = ToscaFolder::open(&d)?;
+            let _ = writeln!(out, "data: {}", d.display());
+            let mut v = Vec::new();
+            for (name, entries) in &folder.classes {
+                if quick && name != "wolf" && name != "cat" {
+                    continue;
+                }
+                let meshes: Vec<Mesh> = entries.iter().map(|e| e.load()).collect::<Result<_>>()?;
+                if meshes.len() < 2 {
+                    continue;
+                }
+                let (_, meshes) = adopt_consistent_faces(&meshes)?;
+                v.push((name.clone(), meshes));
+            }
+            Ok(v)
+        }
+        _ => {
+            let _ = writeln!(
+                out,
+                "data: ../shared/data/tosca not found; using the synthetic TOSCA-style class (resolution 2)"
+            );
+            Ok(vec![("synthetic".to_string(), synthetic_class(2, 0)?)])
+        }
+    }
+}
+
+/// Runs the benchmark and returns the report (Markdown). `quick`: only wolf
+/// and cat (when present) and 3 repetitions instead of 7.
+pub fn run(quick: bool) -> Result<String> {
+    let mut out = String::new();
+    let reps = if quick { 3 } else { 7 };
+    let cfg = FbtConfig::default();
+    let params = FbtParams::default();
+    let schedule = Schedule::default();
+    let sets = classes(&mut out, quick)?;
+    let _ = writeln!(
+        out,
+        "config: default FbtConfig (LBO m = 4 / 10 reduced ½ / 15, r = {}), β_lc = {}, β_sm = {}, schedule {}+{}+{} iterations; medians of {reps} runs; {} thread(s) for faer\n",
+        cfg.clusters,
+        params.beta_lc,
+        params.beta_sm,
+        schedule.average_iters,
+        schedule.minimal_iters,
+        schedule.rich_iters,
+        crate::solve::threads()
+    );
+    let _ = writeln!(
+        out,
+        "| class | n | f | r | b (init/main/rich) | q | build (s) | factorise H (ms) | 1 iter E_total main (ms) | 1 iter E_mn rich (ms) | full solve (ms) | of which D T (ms) | iterations | mean dist. (%) |"
+    );
+    let _ = writeln!(
+        out,
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
+    let mut nicp_case: Option<(String, Vec<Mesh>)> = None;
+    for (name, meshes) in &sets {
+        let q = paper_q(name).min(meshes.len() - 1);
+        let examples = &meshes[..q];
+        let target = &meshes[meshes.len() - 1];
+        let (t_build, setup) = time(if quick { 1 } else { 3 }, || build(examples, &cfg))?;
+        let area = setup.graph.area();
+        let feats = feature_points(target, 8, 0)?;
+        let radii = circle_radii(10, 0.15 * area.sqrt());
+        let pairs: Vec<(usize, usize)> = feats.iter().map(|&f| (f, f)).collect();
+        let (rows, y) = feature_circle_constraints(&examples[0], target, &pairs, &radii)?;
+        let (t_fact, sys) = time(reps, || setup.pipeline.systems(&rows, &params))?;
+        let t0 = sys.initial(&y, schedule.init)?;
+        let one = IterOptions {
+            max_iter: 1,
+            rel_tol: 0.0,
+        };
+        let (t_it, _) = time(reps, || sys.main.solve_average(&y, &t0, &one))?;
+        let last = sys.last();
+        let t_rich = crate::skin::dictionary::DictionaryChange::new(
+            setup.pipeline.main().dictionary(),
+            last.model().dictionary(),
+        )?
+        .apply(&t0)?;
+        let (t_it_mn, _) = time(reps, || last.solve_minimal(&y, &t_rich, None, &one))?;
+        let (t_full, reg) = time(reps, || sys.solve(&y, &schedule))?;
+        let (t_pos, _) = time(reps, || last.positions(&reg.t))?;
+        let d = metrics::relative_distortion(&reg.positions, target.vertices(), area)?;
+        let (bi, bm, br) = setup.sizes;
+        let _ = writeln!(
+            out,
+            "| {name} | {} | {} | {} | {}/{bm}/{} | {q} | {t_build:.2} | {:.1} | {:.2} | {:.2} | {:.1} | {:.1} | {} | {:.2} |",
+            target.n_vertices(),
+            target.n_faces(),
+            setup.pipeline.main().n_clusters(),
+            bi.map_or("-".into(), |b| b.to_string()),
+            br.map_or("-".into(), |b| b.to_string()),
+            1e3 * t_fact,
+            1e3 * t_it,
+            1e3 * t_it_mn,
+            1e3 * t_full,
+            1e3 * t_pos,
+            reg.iterations,
+            100.0 * metrics::mean(&d),
+        );
+        if name == "cat" || (nicp_case.is_none() && name == "synthetic") {
+            nicp_case = Some((name.clone(), meshes.clone()));
+        }
+    }
+    let _ = writeln!(
+        out,
+        "\nPaper (Table 1, MATLAB + C++, 3 GHz i7): 0.7–1.9 ms per iteration, 10–25 ms per full solve."
+    );
+    if let Some((name, meshes)) = nicp_case {
+        let q = paper_q(&name).min(meshes.len() - 1);
+        let examples = &meshes[..q];
+        let target = &meshes[meshes.len() - 1];
+        let setup = build(examples, &cfg)?;
+        let area = setup.graph.area();
+        let feats = feature_points(target, 8, 1)?;
+        let partial = make_partial(
+            target,
+            &feats,
+            &PartialOptions {
+                seed: 1,
+                ..Default::default()
+            },
+        )?;
+        let radii = circle_radii(10, 0.15 * area.sqrt());
+        let pairs: Vec<(usize, usize)> = feats
+            .iter()
+            .zip(&partial.features)
+            .map(|(&a, &b)| (a, b))
+            .collect();
+        let (rows, y) = feature_circle_constraints(&examples[0], &partial.mesh, &pairs, &radii)?;
+        let t = Instant::now();
+        let sys = setup.pipeline.systems(&rows, &params)?;
+        let reg = sys.solve(&y, &schedule)?;
+        let t_init = t.elapsed().as_secs_f64();
+        let opts = NicpOptions::default();
+        let (t_nicp, res) = time(if quick { 1 } else { 3 }, || {
+            nicp(
+                setup.pipeline.last(),
+                &params,
+                (&rows, &y),
+                &partial.mesh,
+                &reg.t,
+                reg.alpha,
+                &opts,
+            )
+        })?;
+        let before = metrics::relative_distortion(&reg.positions, target.vertices(), area)?;
+        let after = metrics::relative_distortion(&res.positions, target.vertices(), area)?;
+        let _ = writeln!(
+            out,
+            "\nNICP on a partial {name} (target {} of {} vertices kept, {:.0} % of the area, {} parts; q = {q}; {} iterations, {} samples):\n",
+            partial.mesh.n_vertices(),
+            target.n_vertices(),
+            100.0 * partial.area_fraction,
+            partial.n_components,
+            opts.iterations,
+            opts.samples
+        );
+        let _ = writeln!(out, "| stage | time (s) | mean dist. (%) | max dist. (%) |");
+        let _ = writeln!(out, "|---|---|---|---|");
+        let _ = writeln!(
+            out,
+            "| feature points (factorise + schedule) | {t_init:.3} | {:.2} | {:.2} |",
+            100.0 * metrics::mean(&before),
+            100.0 * metrics::max(&before)
+        );
+        let _ = writeln!(
+            out,
+            "| + NICP | {t_nicp:.3} | {:.2} | {:.2} |",
+            100.0 * metrics::mean(&after),
+            100.0 * metrics::max(&after)
+        );
+    }
+    Ok(out)
+}
