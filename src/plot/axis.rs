@@ -14,6 +14,8 @@ pub enum Scale {
     Log,
     /// `n` categories centred at 0, …, n − 1 on the range [−0.5, n − 0.5].
     Category(usize),
+    /// Linear, for integer-valued data (counts): ticks only at integers.
+    Integer,
 }
 
 /// One axis: a value range and a scale. Implements plotters' [`Ranged`].
@@ -38,6 +40,16 @@ impl Axis {
             lo,
             hi,
             scale: Scale::Log,
+        }
+    }
+
+    /// A linear axis whose ticks are integers (for counts such as the
+    /// number of key points or examples).
+    pub fn integer(lo: f64, hi: f64) -> Self {
+        Axis {
+            lo,
+            hi,
+            scale: Scale::Integer,
         }
     }
 
@@ -78,6 +90,10 @@ impl Axis {
             Scale::Category(n) => ((0..n).map(|i| i as f64).collect(), 1.0),
             Scale::Linear => {
                 let step = nice_step(self.hi - self.lo, max.max(2));
+                (ticks_in(self.lo, self.hi, step), step)
+            }
+            Scale::Integer => {
+                let step = nice_step(self.hi - self.lo, max.max(2)).max(1.0).ceil();
                 (ticks_in(self.lo, self.hi, step), step)
             }
             Scale::Log => {
@@ -132,6 +148,14 @@ impl Axis {
                 let m = mantissa(step);
                 let sub = if (m - 2.0).abs() < 1e-6 { 4.0 } else { 5.0 };
                 ticks_in(self.lo, self.hi, step / sub)
+            }
+            Scale::Integer => {
+                let (_, step) = self.major_ticks(max_major);
+                if step > 1.0 && self.hi - self.lo <= 50.0 {
+                    ticks_in(self.lo, self.hi, 1.0)
+                } else {
+                    Vec::new()
+                }
             }
             Scale::Log => {
                 let (a, b) = (self.lo.log10(), self.hi.log10());
@@ -299,6 +323,20 @@ mod tests {
         assert_eq!(nice_step(10.0, 4), 2.5);
         assert_eq!(nice_step(0.07, 7), 0.01);
         assert_eq!(ticks_in(0.0, 1.0, 0.25), vec![0.0, 0.25, 0.5, 0.75, 1.0]);
+    }
+
+    #[test]
+    fn integer_axis_ticks_only_integers() {
+        let (t, step) = Axis::integer(0.9, 4.1).major_ticks(10);
+        assert_eq!(t, vec![1.0, 2.0, 3.0, 4.0]);
+        assert_eq!(step, 1.0);
+        assert!(Axis::integer(0.9, 4.1).minor_ticks(10).is_empty());
+        let (t, _) = Axis::integer(0.0, 30.0).major_ticks(4);
+        assert!(t.iter().all(|v| v.fract() == 0.0), "{t:?}");
+        assert!(Axis::integer(0.0, 30.0)
+            .minor_ticks(4)
+            .iter()
+            .all(|v| v.fract() == 0.0));
     }
 
     #[test]

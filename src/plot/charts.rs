@@ -443,7 +443,16 @@ pub(crate) fn prepare_line(c: &LineChart, name: &str) -> Result<PreparedLine> {
         }
         None => {
             let (a, b) = padded(xlo, xhi, if c.markers { 0.03 } else { 0.0 });
-            Axis::linear(a, b)
+            let counts = c
+                .series
+                .iter()
+                .flat_map(|s| s.x.iter())
+                .all(|x| x.fract() == 0.0);
+            if counts && xhi - xlo >= 1.0 {
+                Axis::integer(a, b)
+            } else {
+                Axis::linear(a, b)
+            }
         }
     };
     let y = match c.y_range {
@@ -461,7 +470,18 @@ pub(crate) fn prepare_line(c: &LineChart, name: &str) -> Result<PreparedLine> {
         }
         None => {
             let (a, b) = padded(ylo, yhi, 0.04);
-            Axis::linear(a, b)
+            let counts = c
+                .series
+                .iter()
+                .flat_map(|s| s.y.iter())
+                .all(|y| y.fract() == 0.0);
+            if counts && yhi - ylo >= 1.0 {
+                // Counts: start at zero so that ratios read off the axis.
+                let a = if ylo >= 0.0 { 0.0 } else { a };
+                Axis::integer(a, b)
+            } else {
+                Axis::linear(a, b)
+            }
         }
     };
     Ok(PreparedLine { x, y })
