@@ -1,12 +1,12 @@
 //! `deformlab bench`: median timings of the numerical kernels, of bounded
-//! biharmonic weights and of key point selection.
+//! biharmonic weights, of key point selection and of FBT registration.
 
 use std::process::ExitCode;
 
 use deformlab::{Error, Result};
 
 /// Groups beyond the kernel groups of [`deformlab::bench::GROUPS`].
-const METHOD_GROUPS: [&str; 2] = ["bbw", "keypoints"];
+const METHOD_GROUPS: [&str; 3] = ["bbw", "keypoints", "fbt"];
 
 pub fn run(groups: &[String], quick: bool, threads: usize, exact_full: bool) -> Result<ExitCode> {
     for g in groups {
@@ -50,6 +50,10 @@ pub fn run(groups: &[String], quick: bool, threads: usize, exact_full: bool) -> 
     if want("keypoints") {
         println!("\n## Key point selection\n");
         print!("{}", deformlab::bench_bdt::run(quick, exact_full)?);
+    }
+    if want("fbt") {
+        println!("\n## FBT registration (Table 1, NICP on a partial cat)\n");
+        print!("{}", deformlab::bench_fbt::run(quick)?);
     }
     Ok(ExitCode::SUCCESS)
 }

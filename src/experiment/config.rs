@@ -274,6 +274,8 @@ pub enum MethodKind {
     BdtExtremity,
     /// Rotation-group clustering only (BDT Fig. 4), scored against labels.
     Clustering,
+    /// FBT registration experiments ([`super::fbt`]).
+    Fbt,
 }
 
 /// Random key point pool.
@@ -426,6 +428,9 @@ pipeline_struct! {
         /// Clustering: clusters (default: the number of true labels, else `handles`).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         pub n_clusters: Option<usize>,
+        /// `kind = "fbt"`: the task and its options ([`super::fbt::FbtSpec`]).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub fbt: Option<super::fbt::FbtSpec>,
     }
 }
 
@@ -511,6 +516,9 @@ pub enum PlotKind {
     Panels,
     /// Mesh panels coloured by cluster (BDT Fig. 4).
     Clusters,
+    /// Markdown + CSV table of group means (`metrics`; rows also split by
+    /// the `x` column when set).
+    Table,
 }
 
 /// One `[[outputs.plots]]` entry.
@@ -539,6 +547,9 @@ pub struct PlotSpec {
     /// Logarithmic y axis.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub log_y: Option<bool>,
+    /// Line plots: one series per value of this cases.csv column.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub by: Option<String>,
 }
 
 /// The resolved pipeline of a BDT method.
@@ -580,6 +591,12 @@ pub enum Method {
         n_clusters: Option<usize>,
         seed: u64,
     },
+    /// FBT ([`super::fbt`]); `pipeline` is unused.
+    Fbt {
+        pipeline: Pipeline,
+        spec: super::fbt::FbtSpec,
+        seed: u64,
+    },
 }
 
 impl Method {
@@ -589,7 +606,8 @@ impl Method {
             Method::Bdt { pipeline }
             | Method::BdtRandom { pipeline, .. }
             | Method::BdtExtremity { pipeline, .. }
-            | Method::Clustering { pipeline, .. } => pipeline,
+            | Method::Clustering { pipeline, .. }
+            | Method::Fbt { pipeline, .. } => pipeline,
         }
     }
 
@@ -600,13 +618,14 @@ impl Method {
             Method::BdtRandom { .. } => "bdt_random",
             Method::BdtExtremity { .. } => "bdt_extremity",
             Method::Clustering { .. } => "clustering",
+            Method::Fbt { .. } => "fbt",
         }
     }
 
     /// Whether the method transfers to a target (and is measured against a
     /// ground truth).
     pub fn transfers(&self) -> bool {
-        !matches!(self, Method::Clustering { .. })
+        !matches!(self, Method::Clustering { .. } | Method::Fbt { .. })
     }
 }
 
@@ -860,7 +879,7 @@ fn check_dataset(c: &LoadedConfig) -> Result<()> {
 
 fn check_outputs(c: &LoadedConfig) -> Result<()> {
     for (i, p) in c.config.outputs.plots.iter().enumerate() {
-        for m in p.metrics.iter().chain(p.x.iter()) {
+        for m in p.metrics.iter().chain(p.x.iter()).chain(p.by.iter()) {
             if !CASE_COLUMNS.contains(&m.as_str()) {
                 return Err(bad(
                     &c.path,
@@ -958,7 +977,34 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
             arap_max_iter, selection_poses, frame, refine, target_weights);
         let pipeline = pipeline(&pipe, config.seed, path, i)?;
         let seed = pipe.seed.unwrap_or(config.seed);
+        if m.kind != MethodKind::Fbt {
+            not_for("fbt", m.fbt.is_some())?;
+        }
         let method = match m.kind {
+            MethodKind::Fbt => {
+                not_for("count", m.count.is_some())?;
+                not_for("pool", m.pool.is_some())?;
+                not_for("strategy", m.strategy.is_some())?;
+                not_for("jitter", m.jitter.is_some())?;
+                not_for("handles", m.handles.is_some())?;
+                not_for("features", m.features.is_some())?;
+                not_for("examples", m.examples.is_some())?;
+                not_for("n_clusters", m.n_clusters.is_some())?;
+                let spec = m.fbt.clone().ok_or_else(|| {
+                    bad(
+                        path,
+                        key("fbt"),
+                        "expected an fbt table, e.g. fbt = { task = \"completion\", q = 4 }",
+                    )
+                })?;
+                spec.check()
+                    .map_err(|(k, msg)| bad(path, key(&format!("fbt.{k}")), msg))?;
+                Method::Fbt {
+                    pipeline,
+                    spec,
+                    seed,
+                }
+            }
             MethodKind::Bdt => {
                 not_for("count", m.count.is_some())?;
                 not_for("pool", m.pool.is_some())?;
@@ -1054,6 +1100,7 @@ fn kind_str(k: MethodKind) -> &'static str {
         MethodKind::BdtRandom => "bdt_random",
         MethodKind::BdtExtremity => "bdt_extremity",
         MethodKind::Clustering => "clustering",
+        MethodKind::Fbt => "fbt",
     }
 }
 

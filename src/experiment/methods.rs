@@ -104,6 +104,12 @@ pub fn run_method(
     out: &mut CaseResult,
 ) -> Result<()> {
     let t_total = Instant::now();
+    if let Method::Fbt { spec, seed, .. } = &m.method {
+        let render = render.map(|r| (r, m.name.as_str()));
+        super::fbt::run(col, case, spec, *seed, metrics, render, out)?;
+        out.set("seconds_total", secs(t_total.elapsed().as_secs_f64()));
+        return Ok(());
+    }
     let cm = CaseMeshes::load(col, case)?;
     out.set("n_vertices", cm.a.n_vertices().to_string());
     match &m.method {
@@ -178,7 +184,7 @@ fn bdt(
             seed,
             ..
         } => extremity_keypoints(a, *count, *strategy, *jitter, *seed)?,
-        Method::Clustering { .. } => unreachable!("handled by the caller"),
+        Method::Clustering { .. } | Method::Fbt { .. } => unreachable!("handled by the caller"),
     };
     out.set("seconds_selection", secs(t.elapsed().as_secs_f64()));
     out.set("n_keypoints", keypoints.len().to_string());

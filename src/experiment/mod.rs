@@ -1,5 +1,6 @@
 //! Experiment harness: TOML configs ([`config`]), datasets and cases
-//! ([`dataset`], [`cases`]), methods run on cases ([`methods`]), the
+//! ([`dataset`], [`cases`]), methods run on cases ([`methods`]; FBT
+//! registration experiments in [`fbt`]), the
 //! resumable result store ([`store`]), the suite runner with sharding and
 //! merging ([`runner`]) and the plots regenerated from stored results
 //! ([`plots`]). This layer (with `data`, `mesh::io` and `plot`) is the only
@@ -10,6 +11,7 @@
 pub mod cases;
 pub mod config;
 pub mod dataset;
+pub mod fbt;
 pub mod methods;
 pub mod plots;
 pub mod runner;

@@ -72,6 +72,19 @@ pub fn column_label(c: &str) -> String {
         "ari" => "adjusted Rand index vs true bones".into(),
         "purity" => "purity vs true bones".into(),
         "rigidity_unit" => "per-cluster rigid-fit RMS residual (unit-sphere units)".into(),
+        "q" => "number of example shapes q".into(),
+        "rel_distortion_mean" => "mean relative distortion (√area units)".into(),
+        "rel_distortion_max" => "max relative distortion (√area units)".into(),
+        "rel_distortion_mean_init" => "mean relative distortion before NICP (√area units)".into(),
+        "corr_error_mean" => "mean geodesic correspondence error (√area units)".into(),
+        "alpha" => "recovered global scale α".into(),
+        "alpha_true" => "applied scale".into(),
+        "alpha_error" => "|α − scale| / scale".into(),
+        "alpha_unscaled" => "α of the unscaled target".into(),
+        "alpha_ratio_error" => "|α / α(unscaled) − scale| / scale".into(),
+        "perm_correct" => "share of trials with the true assignment".into(),
+        "dict_size" => "dictionary size b".into(),
+        "arap_energy_linear" => "relative ARAP energy of the linear blend".into(),
         c if c.starts_with("seconds_") => {
             format!("{} (s)", c.trim_start_matches("seconds_").replace('_', " "))
         }
@@ -178,6 +191,7 @@ pub fn make_plots(dir: &Path) -> Result<Vec<String>> {
             PlotKind::Timing => timing(&ctx, spec),
             PlotKind::Panels => panels(&ctx, spec),
             PlotKind::Clusters => clusters(&ctx, spec),
+            PlotKind::Table => table(&ctx, spec),
         };
         ctx.warn(&format!("{:?}", spec.kind).to_lowercase(), r);
     }
@@ -195,9 +209,17 @@ fn default_plots(c: &Config) -> Vec<PlotSpec> {
         x: None,
         show: None,
         log_y: None,
+        by: None,
     };
     let mut v = Vec::new();
-    if c.methods.iter().any(|m| m.kind != MethodKind::Clustering) {
+    if c.methods.iter().any(|m| m.kind == MethodKind::Fbt) {
+        v.push(spec(PlotKind::Cumulative, &[]));
+        v.push(spec(PlotKind::Bars, &["rel_distortion_mean"]));
+    }
+    if c.methods
+        .iter()
+        .any(|m| m.kind != MethodKind::Clustering && m.kind != MethodKind::Fbt)
+    {
         v.push(spec(PlotKind::Cumulative, &[]));
         v.push(spec(PlotKind::Bars, &["err_mean_unit"]));
         v.push(spec(PlotKind::Panels, &[]));
@@ -228,6 +250,12 @@ fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             "bound on |log(face area / area on B)|",
             "faces within the bound (%)",
             "_distortion",
+        ),
+        (
+            "correspondence_area",
+            "geodesic error bound (√area units)",
+            "correspondences within the bound (%)",
+            "_correspondence",
         ),
     ] {
         let mut series = Vec::new();
@@ -290,13 +318,16 @@ fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                 (Some(t), "") => t.clone(),
                 (Some(t), _) => format!("{t} ({})", suffix.trim_start_matches('_')),
                 (None, "_distortion") => format!("{}: cumulative area distortion", ctx.title),
+                (None, "_correspondence") => {
+                    format!("{}: correspondence error (Kim et al.)", ctx.title)
+                }
                 (None, _) => format!("{}: cumulative error to ground truth", ctx.title),
             },
             caption: Some(format!(
                 "{}; mean curve over the {} case(s) with {}",
                 ctx.caption,
                 curve_cases.len(),
-                if suffix == "_distortion" {
+                if suffix == "_distortion" || suffix == "_correspondence" {
                     "results"
                 } else {
                     "ground truth"
@@ -475,20 +506,43 @@ fn line(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
     if spec.metrics.is_empty() {
         return Err(Error::invalid("line plots need `metrics`"));
     }
+    // `by`: one series per value of that column (e.g. the dictionary), in
+    // order of first appearance among the groups.
+    let by_value = |g: &str| -> String {
+        spec.by
+            .as_ref()
+            .and_then(|b| ctx.rows_of_group(g).first().and_then(|r| r.get(b).cloned()))
+            .unwrap_or_default()
+    };
+    let mut values: Vec<String> = Vec::new();
+    for (g, _) in &ctx.groups {
+        let v = by_value(g);
+        if !values.contains(&v) {
+            values.push(v);
+        }
+    }
     let mut series = Vec::new();
     for m in &spec.metrics {
-        let mut pts: Vec<(f64, f64)> = ctx
-            .groups
-            .iter()
-            .filter_map(|(g, _)| Some((group_stats(ctx, g, &x)?.0, group_stats(ctx, g, m)?.0)))
-            .collect();
-        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        if !pts.is_empty() {
-            series.push(Series {
-                label: column_label(m),
-                x: pts.iter().map(|p| p.0).collect(),
-                y: pts.iter().map(|p| p.1).collect(),
-            });
+        for v in &values {
+            let mut pts: Vec<(f64, f64)> = ctx
+                .groups
+                .iter()
+                .filter(|(g, _)| by_value(g) == *v)
+                .filter_map(|(g, _)| Some((group_stats(ctx, g, &x)?.0, group_stats(ctx, g, m)?.0)))
+                .collect();
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            if !pts.is_empty() {
+                let label = match (spec.metrics.len(), v.is_empty()) {
+                    (_, true) => column_label(m),
+                    (1, false) => v.replace('_', " "),
+                    _ => format!("{} ({})", column_label(m), v.replace('_', " ")),
+                };
+                series.push(Series {
+                    label,
+                    x: pts.iter().map(|p| p.0).collect(),
+                    y: pts.iter().map(|p| p.1).collect(),
+                });
+            }
         }
     }
     if series.is_empty() {
@@ -496,6 +550,12 @@ fn line(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
     }
     let y_label = if spec.metrics.len() == 1 {
         column_label(&spec.metrics[0])
+    } else if spec
+        .metrics
+        .iter()
+        .all(|m| column_label(m).contains("(√area units)"))
+    {
+        "error (√area units)".into()
     } else {
         "error (unit-sphere units)".into()
     };
@@ -580,6 +640,105 @@ fn timing(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         log_y: true,
     };
     save_bar_chart(&chart, &stem)
+}
+
+/// A Markdown + CSV table of group means: one row per group (and per
+/// value of the `x` column when set, e.g. the class), one column per metric.
+fn table(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
+    if spec.metrics.is_empty() {
+        return Err(Error::invalid("tables need `metrics`"));
+    }
+    let mut keys: Vec<(String, String)> = Vec::new();
+    for (g, _) in &ctx.groups {
+        for r in ctx.rows_of_group(g) {
+            let v = spec
+                .x
+                .as_ref()
+                .and_then(|x| r.get(x).cloned())
+                .unwrap_or_default();
+            if !keys.contains(&(g.clone(), v.clone())) {
+                keys.push((g.clone(), v));
+            }
+        }
+    }
+    if keys.is_empty() {
+        return Err(Error::invalid("no finished results for the table"));
+    }
+    let head_x = spec.x.clone().map(|x| vec![x]).unwrap_or_default();
+    let header: Vec<String> = ["method".to_string()]
+        .into_iter()
+        .chain(head_x.iter().cloned())
+        .chain(spec.metrics.iter().map(|m| column_label(m)))
+        .collect();
+    let mut md = format!(
+        "| {} |\n|{}\n",
+        header.join(" | "),
+        "---|".repeat(header.len())
+    );
+    let mut csv_out = csv::Writer::from_writer(Vec::new());
+    let csv_head: Vec<String> = ["method".to_string()]
+        .into_iter()
+        .chain(head_x.iter().cloned())
+        .chain(spec.metrics.iter().cloned())
+        .chain(["n".to_string()])
+        .collect();
+    csv_out
+        .write_record(&csv_head)
+        .map_err(|e| Error::invalid(format!("table CSV: {e}")))?;
+    for (g, v) in &keys {
+        let rows: Vec<&Row> = ctx
+            .rows_of_group(g)
+            .into_iter()
+            .filter(|r| {
+                spec.x
+                    .as_ref()
+                    .is_none_or(|x| r.get(x).map(String::as_str) == Some(v.as_str()))
+            })
+            .collect();
+        let cells: Vec<String> = spec
+            .metrics
+            .iter()
+            .map(|m| {
+                let vals: Vec<f64> = rows.iter().filter_map(|r| f(r, m)).collect();
+                if vals.is_empty() {
+                    String::new()
+                } else {
+                    let mean = vals.iter().sum::<f64>() / vals.len() as f64;
+                    format!("{mean:.4e}")
+                }
+            })
+            .collect();
+        let mut line: Vec<String> = vec![g.clone()];
+        if spec.x.is_some() {
+            line.push(v.clone());
+        }
+        line.extend(
+            cells
+                .iter()
+                .map(|c| c.parse::<f64>().map_or("–".to_string(), super::store::num)),
+        );
+        md.push_str(&format!("| {} |\n", line.join(" | ")));
+        let mut rec: Vec<String> = vec![g.clone()];
+        if spec.x.is_some() {
+            rec.push(v.clone());
+        }
+        rec.extend(cells);
+        rec.push(rows.len().to_string());
+        csv_out
+            .write_record(&rec)
+            .map_err(|e| Error::invalid(format!("table CSV: {e}")))?;
+    }
+    md.push_str(&format!(
+        "\n{}; means over cases.\n",
+        spec.title.clone().unwrap_or_else(|| ctx.caption.clone())
+    ));
+    let stem = ctx.stem(spec, "table");
+    super::store::write_file(&stem.with_extension("md"), md.as_bytes(), true)?;
+    let bytes = csv_out
+        .into_inner()
+        .map_err(|e| Error::invalid(format!("table CSV: {e}")))?;
+    super::store::write_file(&stem.with_extension("csv"), &bytes, true)?;
+    Ok(())
 }
 
 fn keypoints_of(row: &Row) -> Vec<(usize, usize)> {

@@ -19,22 +19,34 @@
 //! ```
 //!
 //! keeping the gradient `g = Qx − c` up to date (O(b) per update). Each
-//! update cannot increase the objective, so the objective is non-increasing.
-//! Sweeps go over the coordinates in index order (deterministic, no random
-//! choice), until the largest coordinate change of a sweep is below
-//! `tol · max(1, max |x|)` or `max_sweeps` is reached. Optimality (KKT) at
-//! the result: `|g_a| ≤ l1` where `x_a = 0`, `g_a = −l1·sign(x_a)` elsewhere.
+//! update cannot increase the objective. Sweeps go over the coordinates in
+//! index order (deterministic, no random choice).
+//!
+//! **Active-set refinement.** Plain coordinate descent crawls on the
+//! ill-conditioned Gram matrices of redundant dictionaries (measured: after
+//! 2000 sweeps still 14× above the minimum). Every [`REFINE_EVERY`] sweeps
+//! the support `A` and signs `s` of the iterate are frozen and the smooth
+//! problem on that face is solved exactly, `Q_AA z = c_A − l1 s` (Cholesky);
+//! `z` replaces the iterate when the true objective (with `|z|`) does not
+//! increase, so the objective stays non-increasing; with consistent signs
+//! `z` is the exact minimiser on that face, and further sweeps fix the
+//! support otherwise. The solve
+//! stops when the optimality (KKT) conditions hold to `tol · max|c|`:
+//! `|g_a| ≤ l1` where `x_a = 0`, `g_a = −l1·sign(x_a)` elsewhere.
 
 use nalgebra::DMatrix;
 
 use crate::{Error, Result};
+
+/// Sweeps between active-set refinements.
+pub const REFINE_EVERY: usize = 5;
 
 /// Options of [`quadratic_l1`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CoordinateDescentOptions {
     /// Maximum sweeps over all coordinates.
     pub max_sweeps: usize,
-    /// Relative stopping tolerance on the largest change in a sweep.
+    /// Relative KKT tolerance (times `max|c|`).
     pub tol: f64,
 }
 
@@ -42,7 +54,7 @@ impl Default for CoordinateDescentOptions {
     fn default() -> Self {
         CoordinateDescentOptions {
             max_sweeps: 2000,
-            tol: 1e-10,
+            tol: 1e-9,
         }
     }
 }
@@ -99,11 +111,12 @@ pub fn quadratic_l1(
         let mut xc = vec![0.0; b];
         // g = Q x − c with x = 0.
         let mut g: Vec<f64> = (0..b).map(|a| -c[(a, col)]).collect();
-        let mut done = false;
+        let cmax = (0..b).fold(0.0_f64, |m, a| m.max(c[(a, col)].abs()));
+        let ktol = opts.tol * cmax.max(f64::MIN_POSITIVE);
+        let mut done = kkt_ok(&xc, &g, l1, ktol);
         let mut sweeps = 0;
-        while sweeps < opts.max_sweeps {
+        while !done && sweeps < opts.max_sweeps {
             sweeps += 1;
-            let mut max_change: f64 = 0.0;
             for a in 0..b {
                 let qaa = q[(a, a)];
                 // c_a − Σ_{a'≠a} Q x = −(g_a − Q_aa x_a)
@@ -115,14 +128,12 @@ pub fn quadratic_l1(
                         *gi += qi * delta;
                     }
                     xc[a] = new;
-                    max_change = max_change.max(delta.abs());
                 }
             }
-            let scale = xc.iter().fold(1.0_f64, |m, v| m.max(v.abs()));
-            if max_change <= opts.tol * scale {
-                done = true;
-                break;
+            if sweeps % REFINE_EVERY == 0 {
+                refine(q, c, col, l1, &mut xc, &mut g);
             }
+            done = kkt_ok(&xc, &g, l1, ktol);
         }
         converged &= done;
         max_sweeps_used = max_sweeps_used.max(sweeps);
@@ -151,6 +162,54 @@ pub fn quadratic_l1_objective(
 /// The smallest `l1` for which the solution is zero: `max |c|`.
 pub fn l1_max(c: &DMatrix<f64>) -> f64 {
     c.iter().fold(0.0, |m, v| m.max(v.abs()))
+}
+
+/// KKT conditions of `½xᵀQx − cᵀx + l1‖x‖₁` at `x` with gradient `g`.
+fn kkt_ok(x: &[f64], g: &[f64], l1: f64, tol: f64) -> bool {
+    x.iter().zip(g).all(|(&xa, &ga)| {
+        if xa == 0.0 {
+            ga.abs() <= l1 + tol
+        } else {
+            (ga + l1 * xa.signum()).abs() <= tol
+        }
+    })
+}
+
+/// One active-set step (see the module docs); updates `x` and `g = Qx − c`
+/// when accepted.
+fn refine(q: &DMatrix<f64>, c: &DMatrix<f64>, col: usize, l1: f64, x: &mut [f64], g: &mut [f64]) {
+    let act: Vec<usize> = (0..x.len()).filter(|&a| x[a] != 0.0).collect();
+    if act.is_empty() {
+        return;
+    }
+    let k = act.len();
+    let qa = DMatrix::from_fn(k, k, |i, j| q[(act[i], act[j])]);
+    let rhs = nalgebra::DVector::from_fn(k, |i, _| c[(act[i], col)] - l1 * x[act[i]].signum());
+    let Some(chol) = qa.cholesky() else {
+        return;
+    };
+    let z = chol.solve(&rhs);
+    let mut xn = vec![0.0; x.len()];
+    for (i, &a) in act.iter().enumerate() {
+        xn[a] = z[i];
+    }
+    let obj = |v: &[f64]| -> f64 {
+        let mut f = 0.0;
+        for (a, &va) in v.iter().enumerate() {
+            if va == 0.0 {
+                continue;
+            }
+            let qv: f64 = v.iter().enumerate().map(|(b, &vb)| q[(a, b)] * vb).sum();
+            f += 0.5 * va * qv - c[(a, col)] * va + l1 * va.abs();
+        }
+        f
+    };
+    if obj(&xn) <= obj(x) {
+        for (a, ga) in g.iter_mut().enumerate() {
+            *ga = (0..x.len()).map(|b| q[(a, b)] * xn[b]).sum::<f64>() - c[(a, col)];
+        }
+        x.copy_from_slice(&xn);
+    }
 }
 
 fn soft(z: f64, t: f64) -> f64 {
@@ -220,6 +279,46 @@ mod tests {
             let p = DMatrix::from_fn(12, 2, |_, _| 1e-3 * (rng.random::<f64>() - 0.5));
             assert!(quadratic_l1_objective(&q, &c, l1, &(&s.x + p)) >= f - 1e-12);
         }
+    }
+
+    #[test]
+    fn ill_conditioned_gram_matrix_converges() {
+        // Nearly collinear columns (condition number ~1e8): plain coordinate
+        // descent crawls here; with the active-set refinement and l1 = 0 the
+        // KKT conditions hold after a few dozen sweeps and the result is the
+        // direct solve.
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let (h, b) = (30, 10);
+        let base = DMatrix::from_fn(h, 1, |_, _| rng.random::<f64>() - 0.5);
+        let x = DMatrix::from_fn(h, b, |i, j| {
+            base[(i, 0)] * (1.0 + 0.1 * j as f64) + 1e-3 * (rng.random::<f64>() - 0.5)
+        });
+        let q = x.transpose() * &x;
+        let c = x.transpose() * DMatrix::from_fn(h, 1, |_, _| rng.random::<f64>() - 0.5);
+        let opts = CoordinateDescentOptions::default();
+        let s = quadratic_l1(&q, &c, 0.0, &opts).unwrap();
+        assert!(s.converged && s.sweeps <= 50, "{} sweeps", s.sweeps);
+        let direct = q.clone().cholesky().unwrap().solve(&c);
+        let f_cd = quadratic_l1_objective(&q, &c, 0.0, &s.x);
+        let f_direct = quadratic_l1_objective(&q, &c, 0.0, &direct);
+        assert!(
+            (f_cd - f_direct).abs() <= 1e-9 * f_direct.abs(),
+            "{f_cd} vs {f_direct}"
+        );
+        // With a penalty the support has to be found by the sweeps; the KKT
+        // conditions still hold well within the sweep limit.
+        let l1 = 0.1 * l1_max(&c);
+        let s = quadratic_l1(&q, &c, l1, &opts).unwrap();
+        assert!(s.converged && s.sweeps <= 500, "{} sweeps", s.sweeps);
+        let g = &q * &s.x - &c;
+        for (gi, xi) in g.iter().zip(s.x.iter()) {
+            if *xi == 0.0 {
+                assert!(gi.abs() <= l1 * (1.0 + 1e-6), "{gi} > {l1}");
+            } else {
+                assert!((gi + l1 * xi.signum()).abs() <= 1e-6 * l1, "{gi}");
+            }
+        }
+        assert!(s.x.iter().any(|&v| v == 0.0));
     }
 
     #[test]

@@ -1,0 +1,836 @@
+//! FBT experiments (paper 001, Sec. 5) as harness methods: `kind = "fbt"`
+//! with a `[methods.fbt]` table choosing the task and its options.
+//!
+//! ```toml
+//! [[methods]]
+//! name = "q4"
+//! kind = "fbt"
+//! fbt = { task = "completion", q = 4 }
+//! ```
+//!
+//! **Cases.** An FBT case uses the harness's ordinary case list with
+//! `include_self = true` and `per_pose = true`: the case's subject is the
+//! shape class (synthetic subject, TOSCA class), `reference_pose` is the
+//! reference example and the case's single pose is the target. The other
+//! `q − 1` examples are drawn from the class's remaining shapes (never the
+//! target) by a permutation seeded with the method seed and the case id, so
+//! the example sets of methods that differ only in `q` are nested (the
+//! q = 2 examples are among the q = 4 ones). Shapes of one class must share
+//! their vertex count (face lists are unified by
+//! [`adopt_consistent_faces`]); the truth correspondence is vertex `i` ↔
+//! vertex `i`.
+//!
+//! **Tasks** (columns of `cases.csv`, curves of `curves.csv`):
+//!
+//! | task | paper | what is measured |
+//! |---|---|---|
+//! | `timing` | Table 1 | n, f, r, b, q; precomputation, one E_total iteration (main dictionary), full schedule (medians of `repeats`) |
+//! | `projection` | Table 2 | max / mean relative distortion of the closest shape the dictionary spans (`dictionary` = `lbo`, `skeleton`, `one_example`; size via `m`) |
+//! | `scale` | Figs. 4–5 | target scaled by `scale` about its centroid, `vertices` vertex-position constraints: recovered α, distortion to the scaled truth |
+//! | `completion` | Figs. 6–8 | partial target (`data::partial`), `features` feature points × `circles` geodesic circles, schedule, then NICP: distortion before / after NICP, distortion curve (`cumulative_area`), Kim et al. correspondence curve (`correspondence_area`) |
+//! | `permutation` | Fig. 3 | the first `group` features are ambiguous: the assignment with minimal E_mn among all `group!` is kept; `perm_correct` is 1 when it is the true one |
+//! | `interpolation` | Fig. 3 | two targets registered, blended at s = ½ (rotations slerped per example): ARAP energy of the blend vs the linear blend; endpoint reproduction (when both chose the same example ℓ*) |
+//!
+//! Relative distortion is the paper's: per vertex `‖p − p_true‖ / √area`
+//! with the area of the reference example. The skeleton dictionary uses the
+//! segment weights of [`SkinningWeights::segments`] learnt from the
+//! reference and `rig_poses` other shapes of the class (never the target),
+//! the same for every q — our stand-in for the paper's rigging package.
+
+use std::time::Instant;
+
+use nalgebra::{DMatrix, Vector3};
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use super::cases::Case;
+use super::config::{fnv1a, MetricsSpec};
+use super::dataset::Collection;
+use super::methods::RenderOut;
+use super::store::{num, secs, CaseResult, Curve};
+use crate::data::partial::{feature_points, make_partial, PartialOptions};
+use crate::eval::{
+    arap_energy, cumulative_curve, curve_grid, error_stats, geodesic_error_curve, vertex_errors,
+    ErrorScale,
+};
+use crate::mesh::io::write_ply;
+use crate::mesh::set::adopt_consistent_faces;
+use crate::mesh::Mesh;
+use crate::register::{
+    apply_rows, best_permutation, build, circle_radii, feature_circle_constraints,
+    feature_row_groups, interpolate, metrics, nicp, vertex_rows, DictionaryExamples, FbtConfig,
+    FbtParams, IterOptions, NicpOptions, ScaleMode, Schedule, StageConfig,
+};
+use crate::skin::dictionary::{Dictionary, SkinningWeights};
+use crate::skin::lbo::lbo_basis;
+use crate::skin::lbs::points_from_matrix;
+use crate::solve::EigenOptions;
+use crate::{Error, Point, Result};
+
+/// What an FBT method measures (see the module docs).
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum FbtTask {
+    Timing,
+    Projection,
+    Scale,
+    Completion,
+    Permutation,
+    Interpolation,
+}
+
+/// Dictionary of the `projection` task and of the main stage.
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum DictionarySpec {
+    /// Example-based LBO dictionary (the paper's main choice).
+    #[default]
+    Lbo,
+    /// Example-based dictionary of segment ("skeleton") weights.
+    Skeleton,
+    /// LBO atoms of the reference example only, with as many atoms as the
+    /// example-based LBO dictionary of the same q and m (Table 2, Fig. 8 A).
+    OneExample,
+}
+
+/// Which examples the ARAP energy compares against.
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum CompareSpec {
+    /// All q examples (the paper).
+    #[default]
+    All,
+    /// Only the reference example (Fig. 8 B).
+    First,
+}
+
+/// `[methods.fbt]` / `fbt = { .. }` of a `kind = "fbt"` method.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FbtSpec {
+    pub task: FbtTask,
+    /// Number of example shapes (default 4).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub q: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dictionary: Option<DictionarySpec>,
+    /// LBO eigenfunctions (projection: of the dictionary, default 10;
+    /// otherwise of the main stage, default that of `FbtConfig`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub m: Option<usize>,
+    /// Segments of the skeleton weights (default 12).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub segments: Option<usize>,
+    /// Shapes besides the reference the skeleton weights are learnt from
+    /// (default 4).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rig_poses: Option<usize>,
+    /// Rotation clusters r (default 20).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clusters: Option<usize>,
+    /// Scale applied to the target (`scale` task, default 1.5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<f64>,
+    /// Fixed global scale α (Fig. 8 C); default: α is optimised.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub alpha: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub compare: Option<CompareSpec>,
+    /// Feature points (default 8).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub features: Option<usize>,
+    /// Geodesic circles per feature (default 10).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub circles: Option<usize>,
+    /// Largest circle radius relative to √area (default 0.15; 0.1 for
+    /// `permutation` and `interpolation`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius: Option<f64>,
+    /// Vertex-position constraints of the `scale` task (default 20).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vertices: Option<usize>,
+    /// Run NICP after the feature registration (`completion`, default true).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nicp: Option<bool>,
+    /// NICP iterations (default 10).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nicp_iterations: Option<usize>,
+    /// Size of the ambiguous feature group (`permutation`, default 4).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub group: Option<usize>,
+    /// Timing repetitions (`timing`, default 5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub repeats: Option<usize>,
+    /// Correspondence queries per case (Kim et al. curve, default 300).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub queries: Option<usize>,
+}
+
+impl FbtSpec {
+    pub fn q(&self) -> usize {
+        self.q.unwrap_or(4)
+    }
+
+    /// Checks the options; errors are `(key, message)` relative to the
+    /// method's `fbt` table.
+    pub fn check(&self) -> std::result::Result<(), (String, String)> {
+        let e = |k: &str, m: &str| Err((k.to_string(), m.to_string()));
+        let pos = |k: &str, v: Option<usize>| -> std::result::Result<(), (String, String)> {
+            if v == Some(0) {
+                return Err((k.to_string(), "expected at least 1".into()));
+            }
+            Ok(())
+        };
+        pos("q", self.q)?;
+        pos("m", self.m)?;
+        pos("segments", self.segments)?;
+        pos("rig_poses", self.rig_poses)?;
+        pos("clusters", self.clusters)?;
+        pos("features", self.features)?;
+        pos("circles", self.circles)?;
+        pos("vertices", self.vertices)?;
+        pos("repeats", self.repeats)?;
+        pos("queries", self.queries)?;
+        if let Some(s) = self.scale {
+            if !(s.is_finite() && s > 0.0) {
+                return e("scale", "expected a positive number");
+            }
+        }
+        if let Some(a) = self.alpha {
+            if !(a.is_finite() && a > 0.0) {
+                return e("alpha", "expected a positive number");
+            }
+        }
+        if let Some(r) = self.radius {
+            if !(r.is_finite() && r > 0.0 && r < 1.0) {
+                return e("radius", "expected a number in (0, 1)");
+            }
+        }
+        if let Some(g) = self.group {
+            if !(1..=6).contains(&g) {
+                return e("group", "expected 1..=6 (720 assignments at most)");
+            }
+            if g > self.features.unwrap_or(8) {
+                return e("group", "expected at most `features` features");
+            }
+        }
+        if self.task == FbtTask::Projection && self.dictionary == Some(DictionarySpec::Skeleton) {
+            if self.m.is_some() {
+                return e(
+                    "m",
+                    "does not apply to the skeleton dictionary (use `segments`)",
+                );
+            }
+        } else if self.segments.is_some() || self.rig_poses.is_some() {
+            return e(
+                "segments",
+                "segments / rig_poses apply to task = \"projection\" with dictionary = \"skeleton\"",
+            );
+        }
+        if self.task != FbtTask::Projection && self.dictionary == Some(DictionarySpec::Skeleton) {
+            return e(
+                "dictionary",
+                "the skeleton dictionary is available for task = \"projection\" only",
+            );
+        }
+        Ok(())
+    }
+
+    fn params(&self) -> FbtParams {
+        let mut p = FbtParams::default();
+        if let Some(a) = self.alpha {
+            p.scale = ScaleMode::Fixed(a);
+        }
+        p
+    }
+
+    /// The pipeline configuration of the solving tasks.
+    fn config(&self, seed: u64) -> FbtConfig {
+        let mut c = FbtConfig {
+            seed,
+            ..FbtConfig::default()
+        };
+        if let Some(m) = self.m {
+            c.main.weights = crate::register::WeightChoice::Lbo { m };
+        }
+        if let Some(r) = self.clusters {
+            c.clusters = r;
+        }
+        if self.dictionary == Some(DictionarySpec::OneExample) {
+            // Every stage from the reference only, with the atom count of
+            // the example-based stage: (1 + 3q)·m = 4·m′.
+            let q = self.q() as f64;
+            let one = |s: &StageConfig| -> StageConfig {
+                let m = match s.weights {
+                    crate::register::WeightChoice::Lbo { m } => m,
+                    _ => 10,
+                };
+                StageConfig {
+                    weights: crate::register::WeightChoice::Lbo {
+                        m: (((1.0 + 3.0 * q) * m as f64) / 4.0).round() as usize,
+                    },
+                    examples: DictionaryExamples::First,
+                    reduce: s.reduce,
+                }
+            };
+            c.init = c.init.as_ref().map(one);
+            c.main = one(&c.main);
+            c.rich = c.rich.as_ref().map(one);
+        }
+        if self.compare == Some(CompareSpec::First) {
+            c.arap_examples = DictionaryExamples::First;
+        }
+        c
+    }
+}
+
+fn task_name(t: FbtTask) -> &'static str {
+    match t {
+        FbtTask::Timing => "timing",
+        FbtTask::Projection => "projection",
+        FbtTask::Scale => "scale",
+        FbtTask::Completion => "completion",
+        FbtTask::Permutation => "permutation",
+        FbtTask::Interpolation => "interpolation",
+    }
+}
+
+/// The meshes of one FBT case: examples (reference first), the target and
+/// the remaining shapes of the class in draw order.
+struct FbtCase {
+    examples: Vec<Mesh>,
+    target: Mesh,
+    rest: Vec<Mesh>,
+    example_ids: Vec<String>,
+    rest_ids: Vec<String>,
+}
+
+fn load_case(col: &Collection, case: &Case, q: usize, seed: u64) -> Result<FbtCase> {
+    let subject = col
+        .subject(&case.source)
+        .ok_or_else(|| Error::invalid(format!("subject {} not in the dataset", case.source)))?;
+    let target_id = case
+        .poses
+        .first()
+        .ok_or_else(|| Error::invalid("an FBT case needs a target pose"))?;
+    if case.target != case.source {
+        return Err(Error::invalid(format!(
+            "FBT cases register shapes of one class: set [cases] include_self = true and \
+             targets = [] (case {} has source {} and target {})",
+            case.id, case.source, case.target
+        )));
+    }
+    let mut pool: Vec<String> = subject
+        .poses
+        .iter()
+        .chain(&subject.extra)
+        .map(|p| p.id.clone())
+        .filter(|p| p != target_id && *p != case.reference)
+        .collect();
+    if pool.len() + 1 < q {
+        return Err(Error::invalid(format!(
+            "q = {q} examples need {} shapes of class {} besides the reference and the target; \
+             it has {}",
+            q - 1,
+            case.source,
+            pool.len()
+        )));
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ fnv1a(case.id.as_bytes()));
+    pool.shuffle(&mut rng);
+    let mut ids = vec![case.reference.clone()];
+    ids.extend(pool.iter().take(q - 1).cloned());
+    let rest_ids: Vec<String> = pool[q - 1..].to_vec();
+    let mut all: Vec<Mesh> = Vec::new();
+    for id in ids.iter().chain([target_id]).chain(&rest_ids) {
+        all.push((*col.mesh(&case.source, id)?).clone());
+    }
+    let (_, mut all) = adopt_consistent_faces(&all)?;
+    let rest = all.split_off(q + 1);
+    let target = all.pop().ok_or_else(|| Error::invalid("no target"))?;
+    Ok(FbtCase {
+        examples: all,
+        target,
+        rest,
+        example_ids: ids,
+        rest_ids,
+    })
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_unstable_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn save(dir: &std::path::Path, name: &str, mesh: &Mesh) -> Result<()> {
+    let path = dir.join(name);
+    if path.exists() {
+        return Ok(());
+    }
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    write_ply(&path, mesh)
+}
+
+/// Runs an FBT method on a case, filling `out` (see the module docs).
+pub fn run(
+    col: &Collection,
+    case: &Case,
+    spec: &FbtSpec,
+    seed: u64,
+    metrics_spec: &MetricsSpec,
+    render: Option<(&RenderOut, &str)>,
+    out: &mut CaseResult,
+) -> Result<()> {
+    let q = spec.q();
+    let fc = load_case(col, case, q, seed)?;
+    out.set("q", q.to_string());
+    out.set("fbt_task", task_name(spec.task));
+    out.set("examples", fc.example_ids.join(";"));
+    out.set("n_vertices", fc.target.n_vertices().to_string());
+    out.set("n_faces", fc.target.n_faces().to_string());
+    let m = spec.m.unwrap_or(10);
+    out.set(
+        "dictionary",
+        match spec.dictionary.unwrap_or_default() {
+            DictionarySpec::Lbo => format!("LBO m = {m}"),
+            DictionarySpec::Skeleton => {
+                format!("skeleton, {} segments", spec.segments.unwrap_or(12))
+            }
+            DictionarySpec::OneExample => format!("one example, size of LBO m = {m}"),
+        },
+    );
+    let render_dir = render.map(|(r, name)| r.dir.join(name));
+    let pose = case.poses[0].clone();
+    match spec.task {
+        FbtTask::Projection => projection(&fc, spec, seed, out),
+        FbtTask::Timing => timing(&fc, spec, seed, out),
+        FbtTask::Scale => scale(&fc, spec, seed, out, render_dir.as_deref(), &pose),
+        FbtTask::Completion => completion(
+            &fc,
+            spec,
+            seed,
+            case,
+            metrics_spec,
+            out,
+            render_dir.as_deref(),
+            &pose,
+        ),
+        FbtTask::Permutation => permutation(&fc, spec, seed, out),
+        FbtTask::Interpolation => interpolation(&fc, spec, seed, out, render_dir.as_deref(), &pose),
+    }
+}
+
+fn set_distortion(out: &mut CaseResult, d: &[f64], suffix: &str) {
+    out.set(
+        &format!("rel_distortion_mean{suffix}"),
+        num(metrics::mean(d)),
+    );
+    out.set(&format!("rel_distortion_max{suffix}"), num(metrics::max(d)));
+}
+
+/// Table 2: the closest shape in the dictionary's span.
+fn projection(fc: &FbtCase, spec: &FbtSpec, seed: u64, out: &mut CaseResult) -> Result<()> {
+    let t = Instant::now();
+    let reference = &fc.examples[0];
+    let m = spec.m.unwrap_or(10);
+    let dict = match spec.dictionary.unwrap_or_default() {
+        DictionarySpec::Lbo => {
+            let basis = lbo_basis(reference, m, &EigenOptions::default())?;
+            Dictionary::from_meshes(&fc.examples, &SkinningWeights::lbo(&basis))?
+        }
+        DictionarySpec::OneExample => {
+            let m1 = (((1.0 + 3.0 * fc.examples.len() as f64) * m as f64) / 4.0).round() as usize;
+            let basis = lbo_basis(reference, m1, &EigenOptions::default())?;
+            Dictionary::from_meshes(&fc.examples[..1], &SkinningWeights::lbo(&basis))?
+        }
+        DictionarySpec::Skeleton => {
+            let k = spec.rig_poses.unwrap_or(4);
+            if fc.examples.len() - 1 + fc.rest.len() < k {
+                return Err(Error::invalid(format!(
+                    "skeleton weights need {k} rig shapes besides the reference and the target"
+                )));
+            }
+            // Rig shapes: the draw order of the class, independent of q.
+            let rig: Vec<Mesh> = fc.examples[1..]
+                .iter()
+                .chain(&fc.rest)
+                .take(k)
+                .cloned()
+                .collect();
+            let w = SkinningWeights::segments(
+                reference,
+                &rig,
+                spec.segments.unwrap_or(12),
+                0.05,
+                seed,
+            )?;
+            Dictionary::from_meshes(&fc.examples, &w)?
+        }
+    };
+    out.set("dict_size", dict.size().to_string());
+    let coef = dict.project(fc.target.vertices())?;
+    let p = points_from_matrix(&dict.apply(&coef)?);
+    let area = crate::ops::total_area(reference);
+    let d = metrics::relative_distortion(&p, fc.target.vertices(), area)?;
+    set_distortion(out, &d, "");
+    out.set("seconds_precompute", secs(t.elapsed().as_secs_f64()));
+    Ok(())
+}
+
+/// Feature-circle constraints between the reference (vertex `f`) and the
+/// target (vertex `g`).
+fn circles(
+    fc: &FbtCase,
+    spec: &FbtSpec,
+    target: &Mesh,
+    pairs: &[(usize, usize)],
+    area: f64,
+    default_radius: f64,
+) -> Result<(crate::register::ConstraintRows, DMatrix<f64>)> {
+    let radii = circle_radii(
+        spec.circles.unwrap_or(10),
+        spec.radius.unwrap_or(default_radius) * area.sqrt(),
+    );
+    feature_circle_constraints(&fc.examples[0], target, pairs, &radii)
+}
+
+/// Table 1 timings (medians of `repeats`).
+fn timing(fc: &FbtCase, spec: &FbtSpec, seed: u64, out: &mut CaseResult) -> Result<()> {
+    let reps = spec.repeats.unwrap_or(5);
+    let params = spec.params();
+    let schedule = Schedule::default();
+    let t = Instant::now();
+    let setup = build(&fc.examples, &spec.config(seed))?;
+    let t_build = t.elapsed().as_secs_f64();
+    let area = setup.graph.area();
+    let feats = feature_points(&fc.target, spec.features.unwrap_or(8), seed)?;
+    let pairs: Vec<(usize, usize)> = feats.iter().map(|&f| (f, f)).collect();
+    let (rows, y) = circles(fc, spec, &fc.target, &pairs, area, 0.15)?;
+    let t = Instant::now();
+    let sys = setup.pipeline.systems(&rows, &params)?;
+    let t_fact = t.elapsed().as_secs_f64();
+    let t0 = sys.initial(&y, schedule.init)?;
+    let one = IterOptions {
+        max_iter: 1,
+        rel_tol: 0.0,
+    };
+    let mut it = Vec::new();
+    let mut full = Vec::new();
+    let mut reg = None;
+    for _ in 0..reps {
+        let t = Instant::now();
+        sys.main.solve_average(&y, &t0, &one)?;
+        it.push(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        reg = Some(sys.solve(&y, &schedule)?);
+        full.push(t.elapsed().as_secs_f64());
+    }
+    let reg = reg.ok_or_else(|| Error::invalid("no repetitions"))?;
+    let (bi, bm, br) = setup.sizes;
+    out.set("dict_size", bm.to_string());
+    out.set(
+        "dict_sizes",
+        format!(
+            "{}/{bm}/{}",
+            bi.map_or("-".into(), |b| b.to_string()),
+            br.map_or("-".into(), |b| b.to_string())
+        ),
+    );
+    out.set("n_clusters", setup.pipeline.main().n_clusters().to_string());
+    out.set("n_constraints", rows.len().to_string());
+    out.set("seconds_precompute", secs(t_build + t_fact));
+    out.set("seconds_factorise", secs(t_fact));
+    out.set("seconds_iteration", secs(median(it)));
+    out.set("seconds_solve", secs(median(full)));
+    out.set("iterations", reg.iterations.to_string());
+    let d = metrics::relative_distortion(&reg.positions, fc.target.vertices(), area)?;
+    set_distortion(out, &d, "");
+    Ok(())
+}
+
+fn scaled(points: &[Point], s: f64) -> Vec<Point> {
+    let c = points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / points.len() as f64;
+    points
+        .iter()
+        .map(|p| Point::from(c + s * (p.coords - c)))
+        .collect()
+}
+
+/// Figs. 4–5: vertex-position constraints on a scaled target.
+fn scale(
+    fc: &FbtCase,
+    spec: &FbtSpec,
+    seed: u64,
+    out: &mut CaseResult,
+    render: Option<&std::path::Path>,
+    pose: &str,
+) -> Result<()> {
+    let s = spec.scale.unwrap_or(1.5);
+    let params = spec.params();
+    let t = Instant::now();
+    let setup = build(&fc.examples, &spec.config(seed))?;
+    out.set("seconds_precompute", secs(t.elapsed().as_secs_f64()));
+    let target = fc.target.with_vertices(scaled(fc.target.vertices(), s))?;
+    let verts = feature_points(&fc.examples[0], spec.vertices.unwrap_or(20), seed)?;
+    let rows = vertex_rows(&verts);
+    let y = apply_rows(&rows, target.vertices())?;
+    let t = Instant::now();
+    let sys = setup.pipeline.systems(&rows, &params)?;
+    let reg = sys.solve(&y, &Schedule::default())?;
+    out.set("seconds_solve", secs(t.elapsed().as_secs_f64()));
+    out.set("n_constraints", rows.len().to_string());
+    out.set("dict_size", setup.sizes.1.to_string());
+    out.set("alpha", num(reg.alpha));
+    out.set("alpha_true", num(s));
+    out.set("alpha_error", num((reg.alpha - s).abs() / s));
+    // The unscaled target's own α (≠ 1 when it is not an isometry of the
+    // examples): α is linear in the target's scale, so α / α₁ isolates the
+    // applied scale.
+    let y1 = apply_rows(&rows, fc.target.vertices())?;
+    let alpha1 = sys.solve(&y1, &Schedule::default())?.alpha;
+    out.set("alpha_unscaled", num(alpha1));
+    out.set("alpha_ratio_error", num((reg.alpha / alpha1 - s).abs() / s));
+    let area = setup.graph.area() * s * s;
+    let d = metrics::relative_distortion(&reg.positions, target.vertices(), area)?;
+    set_distortion(out, &d, "");
+    if let Some(dir) = render {
+        save(
+            dir,
+            &format!("result_{pose}.ply"),
+            &fc.examples[0].with_vertices(reg.positions)?,
+        )?;
+        save(dir, &format!("scaled_target_{pose}.ply"), &target)?;
+    }
+    Ok(())
+}
+
+/// Figs. 6–8: partial target, feature registration, NICP.
+#[allow(clippy::too_many_arguments)]
+fn completion(
+    fc: &FbtCase,
+    spec: &FbtSpec,
+    seed: u64,
+    case: &Case,
+    metrics_spec: &MetricsSpec,
+    out: &mut CaseResult,
+    render: Option<&std::path::Path>,
+    pose: &str,
+) -> Result<()> {
+    let params = spec.params();
+    let t = Instant::now();
+    let setup = build(&fc.examples, &spec.config(seed))?;
+    out.set("seconds_precompute", secs(t.elapsed().as_secs_f64()));
+    out.set("dict_size", setup.sizes.1.to_string());
+    out.set("n_clusters", setup.pipeline.main().n_clusters().to_string());
+    let area = setup.graph.area();
+    // Partial target: depends on the case only (same for every method).
+    let pseed = fnv1a(case.id.as_bytes());
+    let feats = feature_points(&fc.target, spec.features.unwrap_or(8), pseed)?;
+    let partial = make_partial(
+        &fc.target,
+        &feats,
+        &PartialOptions {
+            seed: pseed,
+            ..Default::default()
+        },
+    )?;
+    out.set("partial_area", num(partial.area_fraction));
+    let pairs: Vec<(usize, usize)> = feats
+        .iter()
+        .zip(&partial.features)
+        .map(|(&f, &g)| (f, g))
+        .collect();
+    let (rows, y) = circles(fc, spec, &partial.mesh, &pairs, area, 0.15)?;
+    out.set("n_constraints", rows.len().to_string());
+    let t = Instant::now();
+    let sys = setup.pipeline.systems(&rows, &params)?;
+    let reg = sys.solve(&y, &Schedule::default())?;
+    out.set("seconds_solve", secs(t.elapsed().as_secs_f64()));
+    out.set("alpha", num(reg.alpha));
+    let before = metrics::relative_distortion(&reg.positions, fc.target.vertices(), area)?;
+    set_distortion(out, &before, "_init");
+    let positions = if spec.nicp.unwrap_or(true) {
+        let t = Instant::now();
+        let opts = NicpOptions {
+            iterations: spec.nicp_iterations.unwrap_or(10),
+            seed,
+            ..NicpOptions::default()
+        };
+        let res = nicp(
+            setup.pipeline.last(),
+            &params,
+            (&rows, &y),
+            &partial.mesh,
+            &reg.t,
+            reg.alpha,
+            &opts,
+        )?;
+        out.set("seconds_nicp", secs(t.elapsed().as_secs_f64()));
+        out.set("alpha", num(res.alpha));
+        res.positions
+    } else {
+        reg.positions.clone()
+    };
+    let d = metrics::relative_distortion(&positions, fc.target.vertices(), area)?;
+    set_distortion(out, &d, "");
+    // Curves. Distortion: share of template points within a relative
+    // distance (√area units) of their true position; also in unit-sphere
+    // units for the harness's cumulative plot.
+    let grid = curve_grid(metrics_spec.curve_max_area(), metrics_spec.curve_points())?;
+    out.curves.push(Curve::new(
+        "cumulative_area",
+        &grid,
+        &cumulative_curve(&d, &grid),
+    ));
+    let sc = ErrorScale::of_reference(&fc.target)?;
+    let raw = vertex_errors(&positions, fc.target.vertices())?;
+    let st = error_stats(&raw)?;
+    out.set("err_mean_unit", num(st.mean * sc.unit_sphere));
+    out.set("err_mean_area", num(st.mean * sc.sqrt_area));
+    let unit: Vec<f64> = raw.iter().map(|e| e * sc.unit_sphere).collect();
+    let ugrid = curve_grid(metrics_spec.curve_max(), metrics_spec.curve_points())?;
+    out.curves.push(Curve::new(
+        "cumulative_unit",
+        &ugrid,
+        &cumulative_curve(&unit, &ugrid),
+    ));
+    // Correspondences (Kim et al.): a partial-target point is matched to
+    // the nearest vertex of the registered template; the error is the
+    // geodesic distance on the full target between that vertex and the
+    // point's true vertex, over √area.
+    let nq = spec.queries.unwrap_or(300).min(partial.mesh.n_vertices());
+    let mut idx: Vec<usize> = (0..partial.mesh.n_vertices()).collect();
+    idx.shuffle(&mut ChaCha8Rng::seed_from_u64(pseed));
+    idx.truncate(nq);
+    idx.sort_unstable();
+    let queries: Vec<Point> = idx.iter().map(|&i| partial.mesh.vertices()[i]).collect();
+    let predicted: Vec<usize> = metrics::nearest_points(&queries, &positions)?
+        .into_iter()
+        .map(|(v, _)| v)
+        .collect();
+    let truth: Vec<usize> = idx.iter().map(|&i| partial.vertex_map[i]).collect();
+    let (ce, curve) = geodesic_error_curve(&fc.target, &predicted, &truth, &grid)?;
+    out.set("corr_error_mean", num(metrics::mean(&ce)));
+    out.curves
+        .push(Curve::new("correspondence_area", &grid, &curve));
+    if let Some(dir) = render {
+        save(
+            dir,
+            &format!("result_{pose}.ply"),
+            &fc.examples[0].with_vertices(positions)?,
+        )?;
+        save(dir, &format!("partial_{pose}.ply"), &partial.mesh)?;
+    }
+    Ok(())
+}
+
+/// Fig. 3: automatic correspondence within an ambiguous feature group.
+fn permutation(fc: &FbtCase, spec: &FbtSpec, seed: u64, out: &mut CaseResult) -> Result<()> {
+    let params = spec.params();
+    let setup = build(&fc.examples, &spec.config(seed))?;
+    let area = setup.graph.area();
+    let k = spec.group.unwrap_or(4);
+    let n_circles = spec.circles.unwrap_or(10);
+    let feats = feature_points(&fc.examples[0], spec.features.unwrap_or(8), seed)?;
+    let pairs: Vec<(usize, usize)> = feats.iter().map(|&f| (f, f)).collect();
+    let (rows, y) = circles(fc, spec, &fc.target, &pairs, area, 0.1)?;
+    let group = feature_row_groups(k, n_circles);
+    let t = Instant::now();
+    let sys = setup.pipeline.systems(&rows, &params)?;
+    let search = best_permutation(&sys, &y, &group, &Schedule::default())?;
+    out.set("seconds_solve", secs(t.elapsed().as_secs_f64()));
+    let identity: Vec<usize> = (0..k).collect();
+    let e_true = search
+        .energies
+        .iter()
+        .find(|(p, _)| *p == identity)
+        .map(|e| e.1)
+        .ok_or_else(|| Error::invalid("identity assignment missing"))?;
+    let rank = search.energies.iter().filter(|e| e.1 < e_true).count();
+    out.set(
+        "perm_correct",
+        if search.best == identity { "1" } else { "0" },
+    );
+    out.set("perm_rank", rank.to_string());
+    out.set("perm_count", search.energies.len().to_string());
+    let d =
+        metrics::relative_distortion(&search.registration.positions, fc.target.vertices(), area)?;
+    set_distortion(out, &d, "");
+    Ok(())
+}
+
+/// Fig. 3: interpolation between two registrations.
+fn interpolation(
+    fc: &FbtCase,
+    spec: &FbtSpec,
+    seed: u64,
+    out: &mut CaseResult,
+    render: Option<&std::path::Path>,
+    pose: &str,
+) -> Result<()> {
+    let other = fc.rest.first().ok_or_else(|| {
+        Error::invalid("interpolation needs a second target: one more shape in the class")
+    })?;
+    out.set(
+        "examples",
+        format!("{};to {}", fc.example_ids.join(";"), fc.rest_ids[0]),
+    );
+    let params = spec.params();
+    let setup = build(&fc.examples, &spec.config(seed))?;
+    let area = setup.graph.area();
+    let feats = feature_points(&fc.examples[0], spec.features.unwrap_or(8), seed)?;
+    let pairs: Vec<(usize, usize)> = feats.iter().map(|&f| (f, f)).collect();
+    let (rows, ya) = circles(fc, spec, &fc.target, &pairs, area, 0.1)?;
+    let (_, yb) = circles(fc, spec, other, &pairs, area, 0.1)?;
+    let sys = setup.pipeline.systems(&rows, &params)?;
+    let a = sys.solve(&ya, &Schedule::default())?;
+    let b = sys.solve(&yb, &Schedule::default())?;
+    let last = sys.last();
+    let at =
+        |s: f64| -> Result<Vec<Point>> { last.positions(&interpolate(last, &a, &b, &ya, &yb, s)?) };
+    let p0 = at(0.0)?;
+    let p1 = at(1.0)?;
+    let end = metrics::max(&metrics::relative_distortion(&p0, &a.positions, area)?).max(
+        metrics::max(&metrics::relative_distortion(&p1, &b.positions, area)?),
+    );
+    // The endpoints are the registrations exactly when both chose the same
+    // example ℓ* (otherwise the blend is an average-energy global step).
+    if a.example == b.example {
+        out.set("interp_endpoint_error", num(end));
+    }
+    let reference = &fc.examples[0];
+    let mut ours = Vec::new();
+    let mut linear = Vec::new();
+    let ss = [0.0, 0.25, 0.5, 0.75, 1.0];
+    let mut mid = Vec::new();
+    for &s in &ss {
+        let p = at(s)?;
+        let l: Vec<Point> = a
+            .positions
+            .iter()
+            .zip(&b.positions)
+            .map(|(x, y)| Point::from(x.coords * (1.0 - s) + y.coords * s))
+            .collect();
+        ours.push(arap_energy(reference, &p)?.1);
+        linear.push(arap_energy(reference, &l)?.1);
+        if s == 0.5 {
+            mid = p;
+        }
+    }
+    out.set("arap_energy", num(ours[2]));
+    out.set("arap_energy_linear", num(linear[2]));
+    out.curves
+        .push(Curve::new("interpolation_arap", &ss, &ours));
+    out.curves
+        .push(Curve::new("interpolation_arap_linear", &ss, &linear));
+    if let Some(dir) = render {
+        save(
+            dir,
+            &format!("result_{pose}.ply"),
+            &reference.with_vertices(mid)?,
+        )?;
+    }
+    Ok(())
+}

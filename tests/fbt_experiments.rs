@@ -1,0 +1,199 @@
+//! FBT experiments through the harness: a tiny config with every FBT task
+//! runs end to end (results, tables, plots), and bad `fbt` tables are
+//! rejected naming the key.
+
+use std::path::Path;
+
+use deformlab::experiment::{load_config, parse_config, run_configs, RunOptions};
+
+const TINY: &str = r#"
+name = "fbt-tiny"
+seed = 0
+
+[dataset.synthetic]
+subjects = 1
+poses = 10
+tail = true
+spread = 0.15
+resolution = 1
+
+[cases]
+targets = []
+include_self = true
+per_pose = true
+reference_pose = "rest"
+poses = [8]
+
+[[methods]]
+name = "projection-q1"
+kind = "fbt"
+fbt = { task = "projection", q = 1, m = 10 }
+[[methods]]
+name = "projection-q4"
+kind = "fbt"
+fbt = { task = "projection", q = 4, m = 10 }
+[[methods]]
+name = "scale"
+kind = "fbt"
+fbt = { task = "scale", q = 4, scale = 0.7 }
+[[methods]]
+name = "completion"
+kind = "fbt"
+fbt = { task = "completion", q = 2, nicp_iterations = 2, queries = 50 }
+[[methods]]
+name = "permutation"
+kind = "fbt"
+fbt = { task = "permutation", q = 2, group = 2 }
+[[methods]]
+name = "interpolation"
+kind = "fbt"
+fbt = { task = "interpolation", q = 2 }
+[[methods]]
+name = "timing"
+kind = "fbt"
+fbt = { task = "timing", q = 2, repeats = 1 }
+
+[[outputs.plots]]
+kind = "cumulative"
+file = "curves"
+methods = ["completion"]
+[[outputs.plots]]
+kind = "line"
+file = "line"
+x = "q"
+by = "dictionary"
+metrics = ["rel_distortion_max"]
+methods = ["projection-q1", "projection-q4"]
+[[outputs.plots]]
+kind = "table"
+file = "table"
+metrics = ["q", "rel_distortion_max", "alpha", "perm_correct", "seconds_solve"]
+"#;
+
+fn rows(path: &Path) -> Vec<std::collections::BTreeMap<String, String>> {
+    let mut r = csv::Reader::from_path(path).unwrap();
+    let h = r.headers().unwrap().clone();
+    r.records()
+        .map(|x| {
+            let x = x.unwrap();
+            h.iter()
+                .zip(x.iter())
+                .map(|(a, b)| (a.to_string(), b.to_string()))
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn tiny_fbt_config_runs_through_the_harness() {
+    let t = tempfile::tempdir().unwrap();
+    let cfg = t.path().join("fbt-tiny.toml");
+    std::fs::write(&cfg, TINY).unwrap();
+    let out = t.path().join("results");
+    let opts = RunOptions {
+        out: out.clone(),
+        threads: 2,
+        shard: None,
+        plots: true,
+        progress: false,
+        max_new: None,
+    };
+    let s = run_configs(std::slice::from_ref(&cfg), &opts).unwrap();
+    assert_eq!(s[0].computed, 7);
+    assert_eq!(s[0].failed, 0, "some FBT methods failed");
+    let dir = out.join("fbt-tiny");
+    let rs = rows(&dir.join("cases.csv"));
+    let get = |m: &str, c: &str| -> f64 {
+        let r = rs.iter().find(|r| r["method"] == m).unwrap();
+        assert_eq!(r["status"], "ok", "{m}: {}", r["status"]);
+        r[c].parse()
+            .unwrap_or_else(|_| panic!("{m}.{c} = {:?}", r[c]))
+    };
+    // Table 2: more examples, a closer shape in the span (nested examples).
+    let (d1, d4) = (
+        get("projection-q1", "rel_distortion_max"),
+        get("projection-q4", "rel_distortion_max"),
+    );
+    assert!(d4 < d1, "q = 4: {d4} vs q = 1: {d1}");
+    assert_eq!(get("projection-q4", "dict_size"), (1.0 + 3.0 * 4.0) * 10.0);
+    // Figs. 4-5: α recovers the applied scale.
+    let alpha = get("scale", "alpha");
+    assert!((alpha - 0.7).abs() / 0.7 < 0.02, "alpha {alpha}");
+    // Completion: NICP moves the template closer to the target.
+    let (before, after) = (
+        get("completion", "rel_distortion_mean_init"),
+        get("completion", "rel_distortion_mean"),
+    );
+    assert!(after < before, "NICP: {after} vs {before}");
+    assert!(get("completion", "partial_area") > 0.5);
+    assert!(get("completion", "corr_error_mean") < 0.1);
+    // Permutation: two assignments tried; interpolation reproduces its ends.
+    assert_eq!(get("permutation", "perm_count"), 2.0);
+    let r = rs.iter().find(|r| r["method"] == "interpolation").unwrap();
+    if let Ok(e) = r["interp_endpoint_error"].parse::<f64>() {
+        assert!(e < 1e-6, "endpoint error {e}");
+    }
+    assert!(get("interpolation", "arap_energy") > 0.0);
+    assert!(get("timing", "seconds_iteration") > 0.0);
+    assert!(get("timing", "seconds_solve") >= get("timing", "seconds_iteration"));
+    // Curves and plots.
+    let curves = std::fs::read_to_string(dir.join("curves.csv")).unwrap();
+    assert!(curves.contains("correspondence_area") && curves.contains("cumulative_area"));
+    for f in [
+        "curves.png",
+        "curves_correspondence.png",
+        "line.png",
+        "table.md",
+        "table.csv",
+    ] {
+        assert!(dir.join("plots").join(f).is_file(), "missing plot {f}");
+    }
+    let table = std::fs::read_to_string(dir.join("plots/table.md")).unwrap();
+    assert!(table.contains("| projection-q4 |"), "{table}");
+}
+
+#[test]
+fn bad_fbt_tables_are_rejected_naming_the_key() {
+    let p = Path::new("x.toml");
+    let base = "name = \"x\"\n[[methods]]\nname = \"a\"\n";
+    let err = |s: &str| {
+        parse_config(&format!("{base}{s}"), p)
+            .unwrap_err()
+            .to_string()
+    };
+    let e = err("kind = \"fbt\"\n");
+    assert!(e.contains("methods[0].fbt"), "{e}");
+    let e = err("kind = \"fbt\"\nfbt = { task = \"scale\", q = 0 }\n");
+    assert!(e.contains("methods[0].fbt.q"), "{e}");
+    let e = err("kind = \"fbt\"\nfbt = { task = \"scale\", scale = -1.0 }\n");
+    assert!(e.contains("methods[0].fbt.scale"), "{e}");
+    let e = err("kind = \"fbt\"\nfbt = { task = \"completion\", dictionary = \"skeleton\" }\n");
+    assert!(e.contains("methods[0].fbt.dictionary"), "{e}");
+    let e = err("kind = \"fbt\"\nfbt = { task = \"nope\" }\n");
+    assert!(e.contains("task") || e.contains("fbt"), "{e}");
+    let e = err("kind = \"bdt\"\nfbt = { task = \"scale\" }\n");
+    assert!(
+        e.contains("methods[0].fbt") && e.contains("does not apply"),
+        "{e}"
+    );
+}
+
+#[test]
+fn shipped_fbt_configs_load() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("experiments");
+    for name in [
+        "fbt-table1",
+        "fbt-table2",
+        "fbt-fig3",
+        "fbt-fig4-5",
+        "fbt-fig6",
+        "fbt-fig7",
+        "fbt-fig8",
+    ] {
+        let c = load_config(&root.join(format!("{name}.toml"))).unwrap();
+        assert_eq!(c.config.name, name);
+        let real = root.join("real").join(format!("{name}-tosca.toml"));
+        let c = load_config(&real).unwrap();
+        assert_eq!(c.config.name, format!("{name}-tosca"));
+    }
+}
