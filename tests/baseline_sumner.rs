@@ -497,7 +497,111 @@ fn cat_to_lion_matches_sumner() {
         "mean over poses: {mean:.4} √area; results in {}",
         out_dir.display()
     );
+    // Measured: 0.0096–0.022 √area per pose (mean 0.012), against 0.09–0.44
+    // for the unposed lion. The bounds leave about 2× margin; a wrong
+    // marker base, a broken correspondence or a wrong gradient puts whole
+    // limbs elsewhere, i.e. a large fraction of the unposed distance.
+    assert!(mean < 0.02, "mean {mean}");
     for (p, &(err, rest)) in errs.iter().enumerate() {
-        assert!(err < 0.5 * rest, "pose {}: {err} vs rest {rest}", p + 1);
+        assert!(
+            err < 0.04 && err < 0.25 * rest,
+            "pose {}: {err} vs rest {rest}",
+            p + 1
+        );
     }
+}
+
+/// Horse → camel (camel: genus 3, non-manifold edges). Camel poses are not
+/// in the data: the results are written and rendered to
+/// `$TMPDIR/sumner_horse_camel` for inspection. Ignored (slow, no ground
+/// truth): `cargo test --release --test baseline_sumner -- --ignored horse`.
+#[test]
+#[ignore]
+fn horse_to_camel_renders() {
+    let Some(dir) = shared_data_or_skip("sumner/horse-camel", "horse_to_camel_renders") else {
+        return;
+    };
+    let horse = read_mesh(&dir.join("horse_ref.obj")).unwrap();
+    let camel = read_mesh(&dir.join("camel_ref.obj")).unwrap();
+    let mf = read_markers_yml(&dir.join("markers-horse-camel.yml"), 0).unwrap();
+    let markers: Vec<(usize, usize)> = mf.pairs.iter().map(|p| (p.source, p.target)).collect();
+    let [d0, d1] = marker_base_check(&horse, &camel, &markers);
+    println!(
+        "{} markers; mean normalised distance horse↔camel marker: base 0 {d0:.3}, base 1 {d1:.3}",
+        markers.len()
+    );
+    let ef = deformlab::ops::edge_faces(&camel);
+    println!(
+        "camel: {} v, {} f, {} boundary edges, {} non-manifold edges",
+        camel.n_vertices(),
+        camel.n_faces(),
+        ef.boundary_edges().len(),
+        ef.non_manifold_edges().len()
+    );
+    let t = Instant::now();
+    let res = correspond(&horse, &camel, &markers, &CorrespondenceOptions::default()).unwrap();
+    for s in &res.stages {
+        println!(
+            "  w_C {:8.2}: {} valid points, mean distance {:.4} ℓ, {:.3} s",
+            s.w_closest, s.valid_points, s.mean_distance, s.seconds
+        );
+    }
+    println!(
+        "correspondence step {:.2} s: {} pairs, horse coverage {:.3}, camel coverage {:.3}",
+        t.elapsed().as_secs_f64(),
+        res.triangles.pairs().len(),
+        res.triangles.source_coverage(),
+        res.triangles.target_coverage()
+    );
+    let dt = DeformationTransfer::new(
+        &horse,
+        &camel,
+        &res.triangles,
+        &SumnerTransferOptions::default(),
+    )
+    .unwrap();
+    println!(
+        "factorisation {:.3} s, skipped {:?}, pinned {:?}",
+        dt.factor_seconds(),
+        dt.skipped(),
+        dt.pinned()
+    );
+    let out_dir = std::env::temp_dir().join("sumner_horse_camel");
+    std::fs::create_dir_all(&out_dir).unwrap();
+    write_obj(
+        &out_dir.join("horse-deformed-to-camel.obj"),
+        &res.deformed_source,
+    )
+    .unwrap();
+    let mut panels = vec![
+        ("horse reference".to_string(), horse.clone()),
+        ("horse deformed".to_string(), res.deformed_source.clone()),
+        ("camel reference".to_string(), camel.clone()),
+    ];
+    render(
+        &panels,
+        "Sumner correspondence step",
+        &out_dir.join("horse_camel_corr"),
+    );
+    panels.clear();
+    for p in 1..=5 {
+        let pose = read_mesh(&dir.join(format!("horse-{p:02}.obj"))).unwrap();
+        let t = Instant::now();
+        let ours = dt.transfer(&pose).unwrap();
+        println!("camel-{p:02}: solve {:.4} s", t.elapsed().as_secs_f64());
+        write_obj(&out_dir.join(format!("camel-{p:02}.obj")), &ours).unwrap();
+        panels.push((format!("horse-{p:02}"), pose));
+        panels.push((format!("camel-{p:02}"), ours));
+    }
+    render(
+        &panels[..6],
+        "Sumner DT horse → camel",
+        &out_dir.join("horse_camel_a"),
+    );
+    render(
+        &panels[6..],
+        "Sumner DT horse → camel",
+        &out_dir.join("horse_camel_b"),
+    );
+    println!("results in {}", out_dir.display());
 }
