@@ -605,3 +605,57 @@ fn horse_to_camel_renders() {
     );
     println!("results in {}", out_dir.display());
 }
+
+#[test]
+fn bench_quick_reports_timings() {
+    let report = deformlab::baselines::sumner::bench(true).unwrap();
+    println!("{report}");
+    assert!(report.contains("| correspondence (s) |"), "{report}");
+    assert!(report
+        .lines()
+        .any(|l| l.starts_with("| cat") || l.starts_with("| synthetic")));
+}
+
+#[test]
+fn soft_constraints_pull_towards_their_positions() {
+    let set = FaustStyle {
+        subjects: 2,
+        poses: 3,
+        resolution: 1,
+        ..Default::default()
+    }
+    .generate()
+    .unwrap();
+    let (a, b) = (&set.rest[0], &set.rest[1]);
+    let id = TriangleCorrespondence::identity(a.n_faces());
+    let soft: Vec<usize> = vec![10, 400, 900, 1500];
+    let truth = &set.meshes[1][2];
+    let targets: Vec<Point> = soft.iter().map(|&i| truth.vertices()[i]).collect();
+    let dist = |m: &Mesh| {
+        soft.iter()
+            .zip(&targets)
+            .map(|(&i, p)| (m.vertices()[i] - p).norm())
+            .sum::<f64>()
+    };
+    let mut last = f64::INFINITY;
+    for w in [0.0, 0.1, 10.0] {
+        let dt = DeformationTransfer::new(
+            a,
+            b,
+            &id,
+            &SumnerTransferOptions {
+                anchors: vec![0],
+                soft: soft.clone(),
+                soft_weight: w,
+            },
+        )
+        .unwrap();
+        let out = dt
+            .transfer_with(&set.meshes[0][2], &[truth.vertices()[0]], &targets)
+            .unwrap();
+        let d = dist(&out);
+        println!("soft weight {w}: summed distance to the soft targets {d:.5}");
+        assert!(d < last, "weight {w}: {d} ≥ {last}");
+        last = d;
+    }
+}

@@ -2,8 +2,10 @@
 //!
 //! - [`sumner`]: Sumner & Popović 2004, "Deformation transfer for triangle
 //!   meshes" — per-triangle deformation gradients, the transfer solve and
-//!   (in [`sumner_correspondence`]) their triangle correspondence step.
+//!   (in [`sumner_correspondence`]) their triangle correspondence step;
+//!   timing in [`bench`] (also as `sumner::bench`).
 
+pub mod bench;
 pub mod sumner;
 pub mod sumner_correspondence;
 
