@@ -659,3 +659,59 @@ fn soft_constraints_pull_towards_their_positions() {
         last = d;
     }
 }
+
+/// The "few correspondences" setting of the BDT comparison: shared
+/// connectivity, but only sparse marker pairs `(i, i)` known, so the
+/// correspondence step is used instead of the identity (the oracle).
+#[test]
+fn few_markers_on_shared_connectivity() {
+    let set = FaustStyle {
+        subjects: 2,
+        poses: 4,
+        resolution: 1,
+        ..Default::default()
+    }
+    .generate()
+    .unwrap();
+    let (a, b) = (&set.rest[0], &set.rest[1]);
+    let picks = farthest_point_sampling(b, 16, FpsMetric::Euclidean, 3).unwrap();
+    let markers: Vec<(usize, usize)> = picks.iter().map(|&i| (i, i)).collect();
+    let (dt, res) = DeformationTransfer::from_markers(
+        a,
+        b,
+        &markers,
+        &CorrespondenceOptions::default(),
+        &SumnerTransferOptions::default(),
+    )
+    .unwrap();
+    let identity = res
+        .triangles
+        .pairs()
+        .iter()
+        .filter(|&&(s, t)| s == t)
+        .count();
+    println!(
+        "{} pairs, {:.1}% of them identical faces, target coverage {:.3}",
+        res.triangles.pairs().len(),
+        100.0 * identity as f64 / res.triangles.pairs().len() as f64,
+        res.triangles.target_coverage()
+    );
+    let oracle = DeformationTransfer::new(
+        a,
+        b,
+        &TriangleCorrespondence::identity(a.n_faces()),
+        &SumnerTransferOptions::default(),
+    )
+    .unwrap();
+    let diag = bbox_diag(b);
+    for p in 1..4 {
+        let truth = &set.meshes[1][p];
+        let few = mean_dist_centred(&dt.transfer(&set.meshes[0][p]).unwrap(), truth) / diag;
+        let full = mean_dist_centred(&oracle.transfer(&set.meshes[0][p]).unwrap(), truth) / diag;
+        let rest = mean_dist_centred(b, truth) / diag;
+        println!(
+            "pose {p}: 16 markers {few:.4}, oracle {full:.4}, rest {rest:.4} (bbox diagonals)"
+        );
+        assert!(few < 0.25 * rest && full < 0.25 * rest, "pose {p}");
+    }
+}
