@@ -31,6 +31,7 @@
 //! ```
 
 pub mod arap;
+pub mod baselines;
 pub mod bench;
 pub mod bench_bdt;
 pub mod bench_fbt;
