@@ -54,6 +54,72 @@ fn check_common(w: &DMatrix<f64>, handles: &[usize], bounds: bool, sum_tol: f64)
     }
 }
 
+/// Largest KKT violation (weight units) of each per-handle column of `raw`
+/// for its own box QP (free vertices: the non-handles), computed from `Q`
+/// directly: `g = Q w_k` must vanish where `0 < w < 1`, be ≥ 0 at 0 and ≤ 0
+/// at 1.
+fn per_handle_kkt(bh: &Biharmonic, raw: &DMatrix<f64>, handles: &[usize]) -> f64 {
+    let q = bh.quadratic_form();
+    let n = raw.nrows();
+    let mut diag = vec![0.0; n];
+    for (i, j, &v) in q.triplet_iter() {
+        if i == j {
+            diag[i] = v;
+        }
+    }
+    let mut worst = 0.0f64;
+    for k in 0..raw.ncols() {
+        let mut g = vec![0.0; n];
+        for (i, j, &v) in q.triplet_iter() {
+            g[i] += v * raw[(j, k)];
+        }
+        for i in (0..n).filter(|i| !handles.contains(i)) {
+            let (w, s) = (raw[(i, k)], g[i] / diag[i]);
+            worst = worst.max(if w <= 0.0 {
+                (-s).max(0.0)
+            } else if w >= 1.0 {
+                s.max(0.0)
+            } else {
+                s.abs()
+            });
+        }
+    }
+    worst
+}
+
+/// Largest KKT violation (weight units) of coupled weights for Eq. 1: per
+/// free vertex, `G_ik = (Q w_k)_i` equal on the row's support and not
+/// smaller off it (`ν_i` = G at the row's largest entry).
+fn coupled_kkt(bh: &Biharmonic, w: &DMatrix<f64>, handles: &[usize]) -> f64 {
+    let q = bh.quadratic_form();
+    let (n, m) = w.shape();
+    let g = {
+        let mut g = DMatrix::<f64>::zeros(n, m);
+        for (i, j, &v) in q.triplet_iter() {
+            for k in 0..m {
+                g[(i, k)] += v * w[(j, k)];
+            }
+        }
+        g
+    };
+    let mut worst = 0.0f64;
+    for i in (0..n).filter(|i| !handles.contains(i)) {
+        let qii = q.get_entry(i, i).unwrap().into_value();
+        let p = (0..m)
+            .max_by(|&a, &b| w[(i, a)].total_cmp(&w[(i, b)]))
+            .unwrap();
+        for k in 0..m {
+            let d = (g[(i, k)] - g[(i, p)]) / qii;
+            worst = worst.max(if w[(i, k)] > 0.0 {
+                d.abs()
+            } else {
+                (-d).max(0.0)
+            });
+        }
+    }
+    worst
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 6, ..ProptestConfig::default() })]
 
@@ -68,13 +134,35 @@ proptest! {
         let handles = random_handles(mesh.n_vertices(), n_handles, seed);
         let bh = Biharmonic::new(&mesh).unwrap();
 
-        let coupled = bh.weights(&handles, &BbwOptions::with_mode(WeightMode::Coupled)).unwrap();
+        let coupled_rep = bh
+            .weights_with_report(&handles, &BbwOptions::with_mode(WeightMode::Coupled))
+            .unwrap();
+        let coupled = coupled_rep.weights.clone();
         check_common(&coupled, &handles, true, 1e-6);
-        let per = bh.weights(&handles, &BbwOptions::with_mode(WeightMode::PerHandle)).unwrap();
+        let per_rep = bh
+            .weights_with_report(&handles, &BbwOptions::with_mode(WeightMode::PerHandle))
+            .unwrap();
+        let per = per_rep.weights.clone();
         check_common(&per, &handles, true, 1e-12);
         let unb = bh.weights(&handles, &BbwOptions::with_mode(WeightMode::Unbounded)).unwrap();
         // No normalisation: Q·1 = 0 makes them sum to one by themselves.
         check_common(&unb, &handles, false, 1e-7);
+
+        // Before normalisation each column interpolates its handle, stays in
+        // [0, 1] and is optimal for its own box QP (checked from Q here).
+        let raw = per_rep.unnormalized.as_ref().unwrap();
+        for (k, &h) in handles.iter().enumerate() {
+            for (j, &hj) in handles.iter().enumerate() {
+                prop_assert_eq!(raw[(hj, k)], if j == k { 1.0 } else { 0.0 });
+            }
+            prop_assert!(raw.column(k).iter().all(|&v| (0.0..=1.0).contains(&v)), "handle {h}");
+        }
+        let r = per_handle_kkt(&bh, raw, &handles);
+        prop_assert!(r < 1e-6, "per-handle KKT residual {r}");
+        prop_assert!(per_rep.converged && per_rep.kkt_residual < 1e-6);
+        let r = coupled_kkt(&bh, &coupled, &handles);
+        prop_assert!(r < 1e-6, "coupled KKT residual {r}");
+        prop_assert!(coupled_rep.converged && coupled_rep.kkt_residual < 1e-6);
 
         // Coupled is the optimum of Eq. 1; normalised per-handle weights are
         // feasible for it, and unbounded weights solve a relaxation.
@@ -90,6 +178,93 @@ proptest! {
                 prop_assert!((a - b).norm() < 1e-9);
             }
         }
+    }
+}
+
+#[test]
+fn weights_independent_of_thread_count() {
+    let mesh = perturbed_sphere(3, 0.1, 5);
+    let handles = random_handles(mesh.n_vertices(), 6, 5);
+    let bh = Biharmonic::new(&mesh).unwrap();
+    for mode in [WeightMode::PerHandle, WeightMode::Coupled] {
+        let opts = BbwOptions::with_mode(mode);
+        let run = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| bh.weights(&handles, &opts).unwrap())
+        };
+        assert_eq!(run(1), run(2), "{mode:?}");
+    }
+}
+
+#[test]
+fn admm_warm_start_changes_only_the_start() {
+    // The optional ADMM warm start only seeds the active sets: the weights
+    // are the same optimum (to the active-set tolerance) as from the
+    // default start at the unbounded weights, in both modes.
+    let mesh = perturbed_sphere(3, 0.1, 3);
+    let handles = random_handles(mesh.n_vertices(), 5, 3);
+    let bh = Biharmonic::new(&mesh).unwrap();
+    for mode in [WeightMode::PerHandle, WeightMode::Coupled] {
+        let cold = bh
+            .weights_with_report(&handles, &BbwOptions::with_mode(mode))
+            .unwrap();
+        let mut opts = BbwOptions::with_mode(mode);
+        opts.admm.max_iter = 50;
+        let warm = bh.weights_with_report(&handles, &opts).unwrap();
+        assert!(cold.converged && warm.converged);
+        // Factorisations: the unbounded solve, one per active-set iteration,
+        // and (warm) ADMM's A + ρD at least once.
+        assert_eq!(cold.factorizations, cold.iterations + 1, "{mode:?}");
+        assert!(warm.factorizations >= warm.iterations + 2, "{mode:?}");
+        let diff = (&cold.weights - &warm.weights).abs().max();
+        assert!(
+            diff < 1e-6,
+            "{mode:?}: warm start moved the weights by {diff}"
+        );
+        check_common(&warm.weights, &handles, true, 1e-9);
+    }
+}
+
+#[test]
+fn iteration_cap_is_an_error_unless_accepted() {
+    let mesh = perturbed_sphere(3, 0.1, 9);
+    let handles = random_handles(mesh.n_vertices(), 5, 9);
+    let bh = Biharmonic::new(&mesh).unwrap();
+    for mode in [WeightMode::PerHandle, WeightMode::Coupled] {
+        let full = bh
+            .weights_with_report(&handles, &BbwOptions::with_mode(mode))
+            .unwrap();
+        assert!(full.converged);
+        assert!(
+            full.handle_iterations.iter().any(|&i| i > 1),
+            "test needs a problem with more than one iteration"
+        );
+        let capped = BbwOptions {
+            max_iter: 1,
+            admm: deformlab::solve::qp::AdmmOptions {
+                max_iter: 0,
+                ..BbwOptions::default().admm
+            },
+            ..BbwOptions::with_mode(mode)
+        };
+        let e = bh.weights(&handles, &capped).unwrap_err();
+        assert!(e.to_string().contains("did not settle"), "{e}");
+        let rep = bh
+            .weights_with_report(
+                &handles,
+                &BbwOptions {
+                    accept_unconverged: true,
+                    ..capped
+                },
+            )
+            .unwrap();
+        assert!(!rep.converged, "{mode:?}");
+        assert!(rep.kkt_residual > 1e-4, "{mode:?}: {}", rep.kkt_residual);
+        // Still interpolating, bounded and (normalised) a partition of unity.
+        check_common(&rep.weights, &handles, true, 1e-9);
     }
 }
 

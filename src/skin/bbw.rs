@@ -16,59 +16,96 @@
 //! * [`WeightMode::PerHandle`] — each `w_k` separately with `0 ≤ w_k ≤ 1`
 //!   (no partition of unity), then rows normalised to sum to one (the common
 //!   practice, and what libigl's `bbw` + `normalize_row_sums` does). Solved by
-//!   the primal–dual active-set method of [`crate::solve::qp::BoxQp`]: the
-//!   initial active sets come from 100 ADMM iterations on all handles at once
-//!   (box constraints, one factorisation of `Q_ff + ρ diag Q_ff`, started at
-//!   the unbounded solution); each iteration then solves the free block —
-//!   a fresh factorisation of just that block when under 60 % of the
-//!   vertices are free, otherwise a numeric refactorisation of the full
-//!   pattern (active rows replaced by identity, explicit zeros kept) that
-//!   reuses one symbolic factorisation per handle set.
+//!   the primal–dual active-set method of [`crate::solve::qp::BoxQp`] (the
+//!   iteration of libigl's `active_set`), started from the active set of the
+//!   unbounded weights. Every iteration factorises only the free block
+//!   `Q_FF`, in the order induced by one AMD ordering of `Q_ff` computed
+//!   once per handle set (no ordering per iteration; the cost shrinks with
+//!   the free set). The handles are solved in parallel on rayon's current
+//!   pool, each solve sequential, so the weights do not depend on the thread
+//!   count (bitwise; tested). An ADMM warm start of the active sets is
+//!   optional ([`BbwOptions::admm`], off by default).
 //! * [`WeightMode::Coupled`] — the coupled problem of Eq. 1, all weights
 //!   together, solved exactly by [`crate::solve::qp::simplex_rows_qp`]: a
 //!   primal–dual active-set method on the row supports `S_i = {k : w_ik > 0}`;
 //!   for fixed supports the partition of unity is eliminated row by row
 //!   (one support entry = 1 − the others), leaving one sparse SPD system of
-//!   `Σ_i (|S_i| − 1)` unknowns per iteration. Warm-started from the
-//!   PerHandle weights (a feasible point whose support is nearly right).
-//!   Interpolation, bounds and partition of unity hold exactly; optimality
-//!   to the KKT tolerance [`BbwOptions::tol`].
+//!   `Σ_i (|S_i| − 1)` unknowns per iteration, assembled in one AMD ordering
+//!   of `Q_ff`. Started from the normalised PerHandle weights with entries
+//!   ≤ [`BbwOptions::coupled_support_threshold`] dropped (a support that is
+//!   nearly right). Interpolation, bounds and partition of unity hold
+//!   exactly; optimality to the KKT tolerance [`BbwOptions::tol`].
 //!
-//! **What was tried and measured** (FAUST `tr_reg_001`, 6890 vertices,
-//! 10 FPS handles, release, 2-core machine shared with three other
-//! compiling engineers, so ±50 % noise; full table in the `bench_skin`
-//! report):
+//! **What was chosen and why.** The issue's measurements (7k vertices: a
+//! generic interior-point solver 4–5 s per handle, one equality-only sparse
+//! Cholesky solve 0.07 s) point to a bound-constrained method that reuses
+//! factorisation work; an active set needs only sparse Cholesky solves and
+//! ends at the exact active set, so it was chosen for both modes. Tried and
+//! not chosen:
 //!
-//! * Unbounded: 0.055 s for all 10 handles (one factorisation of `Q_ff`).
-//! * PerHandle, active set reusing the symbolic factorisation, warm start
-//!   from the unbounded solution: 31 iterations per handle, 1.3 s per
-//!   handle. Warm start from 100 ADMM iterations (box constraints, all
-//!   handles at once, one factorisation of `Q_ff + ρ diag Q_ff`): 24
-//!   iterations per handle, 0.9 s per handle (1.4 s in a later run with the
-//!   free-block factorisation, under heavier load — not A/B-tested cleanly).
-//!   libigl's active set: 0.21 s per handle — **we are 4–6× slower**; the iteration count (the active set
-//!   grows by "ringing" fronts of the biharmonic function) is the cost.
-//!   Multiplier test: per row, `|g_i| > tol·Q_ii`; a global scale
-//!   (`tol·max|b|`) stopped early with wrong active sets on FAUST because
-//!   `Q_ii` varies over orders of magnitude with the triangle sizes.
-//! * Coupled by ADMM (simplex projection, `D = M` or `D = diag Q_ff`,
-//!   residual balancing): residuals fall below 1e-6 while the energy is
-//!   still 20–40 % above that of the normalised PerHandle weights (a feasible
-//!   point!) — `Q = L M⁻¹ L` is too ill-conditioned for a first-order method
-//!   (a certified duality gap stayed at ~40 % after 4000 iterations). Not
-//!   used for Coupled; ADMM only warm-starts PerHandle.
-//! * Coupled by the support active set: from the unbounded solution
-//!   projected onto the simplex 58 iterations (4 handles); from PerHandle
-//!   11 (4 handles) / 50 (10 handles, 28k unknowns), 8.5–9.1 s per handle
-//!   in all — exact, but slow: the Table 1 budget of BDT (1.3–4.2 s per
-//!   handle) is not met for 10 handles.
+//! * ADMM for Coupled (simplex projection, `D = M` or `D = diag Q_ff`,
+//!   residual balancing): residuals fell below 1e-6 while the energy was
+//!   still 20–40 % above that of the normalised PerHandle weights (a
+//!   feasible point), and a certified duality gap stayed at ~40 % after
+//!   4000 iterations: `Q = L M⁻¹ L` is too ill-conditioned for a
+//!   first-order method. ADMM remains only as an optional warm start of
+//!   PerHandle: 100 iterations cut the active-set iterations by about 30 %
+//!   but cost about as much CPU time as they saved (an earlier A/B run, not
+//!   re-measured), so it is off by default.
+//! * Refactorising the full-size pattern with the active rows replaced by
+//!   identity (one symbolic factorisation reused; the previous version
+//!   here): every iteration then costs a full factorisation, while the free
+//!   block in the induced order gets cheaper as the active set grows (a
+//!   50 % subset factorised in about a third of the full time on FAUST, in
+//!   an earlier micro-benchmark). Not A/B-tested under equal load: the
+//!   previous version measured 0.9–1.4 s per handle wall in earlier runs.
+//! * The multiplier test is per row, `|g_i| > tol·Q_ii` (scale-free): a
+//!   global scale (`tol·max|b|`) stopped early with wrong active sets on
+//!   FAUST because `Q_ii` varies over orders of magnitude with the triangle
+//!   sizes. `tol = 1e-8` is the default: 1e-6 moved the weights by 4e-3.
+//!
+//! **Measured** (`deformlab bench bbw`: FAUST `tr_reg_001`, 6890 vertices,
+//! 10 FPS handles, release build, medians of 3 runs; the 1-thread Coupled
+//! row is one run). The machine has 2 cores shared with other engineers'
+//! compilations, so wall times are inflated and noisy: two runs of the
+//! benchmark, at load averages 3.8 and 7.6 (the second while this crate
+//! was compiling), gave
+//!
+//! | mode | wall s / handle, 1 thread | 2 threads | CPU s / handle | active-set iterations |
+//! |---|---|---|---|---|
+//! | Unbounded | 0.010 (0.047) | – | 0.007 | – (1 factorisation) |
+//! | PerHandle | 0.54 (2.13) | 0.64 (1.60) | 0.34–0.36 | 14–38–69 per handle (min–median–max); 351 factorisations |
+//! | Coupled | 2.16 (10.6) | 2.66 (10.2) | 0.55–1.8 | PerHandle's, then 33 support iterations (25 426 unknowns); 384 factorisations |
+//!
+//! (the run at load 3.8; in parentheses the run at load 7.6). Two threads
+//! did not help on this loaded 2-core machine. The CPU time of Coupled is
+//! not steady (5.5 s and 18 s for the same 1-thread solve in the two runs;
+//! not understood), PerHandle's is (3.4–3.6 s in all four rows).
+//!
+//! KKT residuals: 1.4e-8 (PerHandle, before normalisation), 5.2e-8
+//! (Coupled). For comparison, libigl 2.6.3's `igl.bbw` (Python wheel, its
+//! defaults, no partition of unity, 1 thread) on the same mesh and handles:
+//! 2.2 s per handle wall (median of 3, load 3.4), in a later run 3.2 s wall
+//! and 1.55 s CPU per handle (load 8.1), 13–96 iterations per handle — so
+//! PerHandle uses about 4× less CPU than libigl here; the issue's 0.21 s per
+//! handle for libigl was not reproduced under this load, and we do not claim
+//! to beat it. PerHandle's weights before normalisation differ from
+//! libigl's by at most 3.6e-6 (2.7e-7 with `tol = 1e-11`), and the summed
+//! energies agree to 3e-9 relative (scratch comparison outside the
+//! repository). Coupled at 2.2–2.7 s per handle (wall, load 3.8) is inside
+//! BDT's Table 1 range (0.45–4.2 s per handle, smaller meshes), not under
+//! heavier load.
+
+use std::time::Instant;
 
 use nalgebra::DMatrix;
+use rayon::prelude::*;
 
 use crate::mesh::Mesh;
 use crate::ops::{cotan_laplacian, mass_matrix, MassKind};
+
 use crate::solve::qp::{
-    project_to_simplex, simplex_rows_qp, AdmmOptions, BoxQp, RowAdmm, RowConstraint,
+    project_to_simplex, simplex_rows_qp, AdmmOptions, BoxQp, BoxQpSolution, RowAdmm, RowConstraint,
 };
 use crate::solve::{sparse_from_triplets, SparseCholesky, SparseMatrix};
 use crate::{Error, Result};
@@ -76,7 +113,8 @@ use crate::{Error, Result};
 /// Which weights to compute (see the module documentation).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum WeightMode {
-    /// BDT Eq. 1: bounds and partition of unity enforced together (ADMM).
+    /// BDT Eq. 1: bounds and partition of unity enforced together (active
+    /// set on the row supports, started from the PerHandle weights).
     #[default]
     Coupled,
     /// Bounds per handle (active set), then rows normalised to sum to one.
@@ -92,17 +130,35 @@ pub struct BbwOptions {
     /// Which problem to solve.
     pub mode: WeightMode,
     /// Active-set iterations allowed: per handle (PerHandle), and again for
-    /// the coupled support iteration (Coupled). Not settling is an error.
+    /// the coupled support iteration (Coupled). Not settling is an error
+    /// unless [`BbwOptions::accept_unconverged`] is set.
     pub max_iter: usize,
     /// Active-set tolerance, in weight units: a bound may be violated by at
     /// most `tol` before the vertex is fixed, and a fixed vertex is released
     /// when its multiplier `g_i` would move it by more than `tol` on its own
     /// (`|g_i| > tol·Q_ii`, wrong sign). Results are clamped to the bounds.
+    /// Measured on FAUST (10 handles, PerHandle): 1e-8 gives weights within
+    /// 1.8e-6 of a 1e-11 solve (energy within 2e-9 relative); 1e-6 already
+    /// moves weights by 4e-3, so it is not loosened for speed.
     pub tol: f64,
-    /// ADMM (box constraints, all handles at once, one factorisation) used
-    /// to guess the initial active sets of the per-handle solves;
-    /// `admm.max_iter` iterations are run (`gap_tol = 0`).
+    /// Optional ADMM warm start (box constraints, all handles at once, one
+    /// factorisation) for the initial active sets of the per-handle solves:
+    /// `admm.max_iter` iterations are run (`gap_tol = 0`). The default 0
+    /// starts from the unbounded weights (as libigl does): 100 ADMM
+    /// iterations cut the active-set iterations by 30 % on FAUST but cost
+    /// about as much CPU time as they saved (see the module documentation).
     pub admm: AdmmOptions,
+    /// When an active set has not settled after `max_iter` iterations,
+    /// return the clamped last iterate (its KKT residual is in
+    /// [`BbwReport::kkt_residual`], [`BbwReport::converged`] is false)
+    /// instead of an error. Off by default.
+    pub accept_unconverged: bool,
+    /// Coupled: the support active set starts from the normalised PerHandle
+    /// weights with entries at or below this dropped (each row keeps its
+    /// largest entry). Only the starting supports change, not the solution.
+    /// Measured on FAUST `tr_reg_001` (support iterations for 10 / 4 FPS
+    /// handles): 0 → 49 / 22, 1e-4 → 33 / 32, 1e-3 → 31 / 47.
+    pub coupled_support_threshold: f64,
 }
 
 impl Default for BbwOptions {
@@ -112,11 +168,13 @@ impl Default for BbwOptions {
             max_iter: 200,
             tol: 1e-8,
             admm: AdmmOptions {
-                max_iter: 100,
+                max_iter: 0,
                 gap_tol: 0.0,
                 rho_scale: 1e-2,
                 adapt_every: 25,
             },
+            accept_unconverged: false,
+            coupled_support_threshold: 1e-4,
         }
     }
 }
@@ -145,6 +203,23 @@ pub struct BbwReport {
     pub coupled_iterations: usize,
     /// Coupled: unknowns of the last reduced coupled system.
     pub coupled_unknowns: usize,
+    /// Active-set iterations of each per-handle solve (PerHandle and the
+    /// warm start of Coupled), in handle order.
+    pub handle_iterations: Vec<usize>,
+    /// KKT residual of the returned solution in weight units (see
+    /// [`crate::solve::qp::BoxQpSolution::kkt_residual`]): PerHandle, the
+    /// largest over the per-handle box problems (before normalisation);
+    /// Coupled, that of the coupled problem. 0 for Unbounded.
+    pub kkt_residual: f64,
+    /// Whether every active set settled within `max_iter` (always true
+    /// unless [`BbwOptions::accept_unconverged`] is set).
+    pub converged: bool,
+    /// PerHandle and Coupled: the per-handle box-constrained weights before
+    /// row normalisation (n × n_h; each column solves its own QP exactly).
+    pub unnormalized: Option<DMatrix<f64>>,
+    /// Wall time (s) of the phases: unbounded solve and ADMM warm start,
+    /// per-handle active sets, coupled support active set.
+    pub seconds: [f64; 3],
 }
 
 /// Handle-independent precomputation for biharmonic weights on one mesh:
@@ -333,8 +408,13 @@ impl Biharmonic {
             weights: DMatrix::zeros(0, 0),
             factorizations: 0,
             iterations: 0,
+            handle_iterations: Vec::new(),
             coupled_iterations: 0,
             coupled_unknowns: 0,
+            kkt_residual: 0.0,
+            converged: true,
+            unnormalized: None,
+            seconds: [0.0; 3],
         };
         if nf == 0 {
             report.weights = w;
@@ -369,10 +449,30 @@ impl Biharmonic {
                 report.factorizations = 1;
                 fac.try_solve(&(-&b))?
             }
-            WeightMode::PerHandle => per_handle(&qff, &b, opts, &mut report)?,
+            WeightMode::PerHandle => {
+                let (raw, unbounded) = per_handle_raw(&qff, &b, opts, &mut report)?;
+                let wf = normalise_rows(&raw, &unbounded);
+                report.unnormalized = Some(raw);
+                wf
+            }
             WeightMode::Coupled => {
-                let x0 = per_handle(&qff, &b, opts, &mut report)?;
+                let (raw, unbounded) = per_handle_raw(&qff, &b, opts, &mut report)?;
+                let mut x0 = normalise_rows(&raw, &unbounded);
+                report.unnormalized = Some(raw);
+                drop_small_entries(&mut x0, opts.coupled_support_threshold);
+                let clock = Instant::now();
                 let s = simplex_rows_qp(&qff, &b, &x0, opts.max_iter, opts.tol)?;
+                report.seconds[2] = clock.elapsed().as_secs_f64();
+                if !s.converged && !opts.accept_unconverged {
+                    return Err(Error::numerical(format!(
+                        "bounded biharmonic weights (coupled): the supports did not settle \
+                         within {} iterations (KKT residual {:.2e}); raise max_iter or set \
+                         accept_unconverged",
+                        opts.max_iter, s.kkt_residual
+                    )));
+                }
+                report.converged &= s.converged;
+                report.kkt_residual = s.kkt_residual;
                 report.factorizations += s.iterations;
                 report.iterations += s.iterations;
                 report.coupled_iterations = s.iterations;
@@ -380,31 +480,41 @@ impl Biharmonic {
                 s.x
             }
         };
-        for (fi, &i) in free.iter().enumerate() {
-            for k in 0..nh {
-                w[(i, k)] = wf[(fi, k)];
+        let scatter_into = |w: &mut DMatrix<f64>, wf: &DMatrix<f64>| {
+            for (fi, &i) in free.iter().enumerate() {
+                for k in 0..nh {
+                    w[(i, k)] = wf[(fi, k)];
+                }
             }
+        };
+        if let Some(raw) = report.unnormalized.take() {
+            let mut full = w.clone();
+            scatter_into(&mut full, &raw);
+            report.unnormalized = Some(full);
         }
+        scatter_into(&mut w, &wf);
         report.weights = w;
         Ok(report)
     }
 }
 
-/// Per-handle bound-constrained weights on the free vertices, rows
-/// normalised (see [`WeightMode::PerHandle`]).
-fn per_handle(
+/// Per-handle bound-constrained weights on the free vertices (unnormalised
+/// columns), see [`WeightMode::PerHandle`]. Handles are solved in parallel
+/// (rayon's current pool); each solve is sequential and independent, so the
+/// result does not depend on the number of threads.
+fn per_handle_raw(
     qff: &SparseMatrix,
     b: &DMatrix<f64>,
     opts: &BbwOptions,
     report: &mut BbwReport,
-) -> Result<DMatrix<f64>> {
+) -> Result<(DMatrix<f64>, DMatrix<f64>)> {
     let (nf, nh) = b.shape();
+    let clock = Instant::now();
     let qp = BoxQp::new(qff)?;
-    let fac = qp.symbolic().factorize(qff)?;
-    let unbounded = fac.try_solve(&(-b))?;
+    let unbounded = qp.solve_unconstrained(b)?;
     report.factorizations = 1;
-    // Warm start: a few ADMM iterations on all handles at once
-    // (box constraints, one factorisation of Q_ff + ρM_f).
+    // Optional warm start: ADMM iterations on all handles at once
+    // (box constraints, one factorisation of Q_ff + ρ diag Q_ff).
     let warm = if opts.admm.max_iter > 0 {
         let mf = diagonal(qff);
         let admm = RowAdmm::new(qff, &mf, RowConstraint::Box(0.0, 1.0))?;
@@ -418,18 +528,43 @@ fn per_handle(
     } else {
         unbounded.clone()
     };
+    report.seconds[0] = clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
+    let solutions: Vec<Result<BoxQpSolution>> = (0..nh)
+        .into_par_iter()
+        .map(|k| {
+            let bk: Vec<f64> = b.column(k).iter().copied().collect();
+            let x0: Vec<f64> = warm.column(k).iter().copied().collect();
+            qp.solve(&bk, 0.0, 1.0, Some(&x0), opts.max_iter, opts.tol)
+        })
+        .collect();
     let mut wf = DMatrix::zeros(nf, nh);
-    for k in 0..nh {
-        let bk: Vec<f64> = b.column(k).iter().copied().collect();
-        let x0: Vec<f64> = warm.column(k).iter().copied().collect();
-        let s = qp.solve(&bk, 0.0, 1.0, Some(&x0), opts.max_iter, opts.tol)?;
+    for (k, s) in solutions.into_iter().enumerate() {
+        let s = s?;
+        if !s.converged && !opts.accept_unconverged {
+            return Err(Error::numerical(format!(
+                "bounded biharmonic weights: the active set of handle {k} did not settle within \
+                 {} iterations (KKT residual {:.2e}); raise max_iter or set accept_unconverged",
+                opts.max_iter, s.kkt_residual
+            )));
+        }
         report.factorizations += s.iterations;
         report.iterations += s.iterations;
+        report.handle_iterations.push(s.iterations);
+        report.kkt_residual = report.kkt_residual.max(s.kkt_residual);
+        report.converged &= s.converged;
         wf.column_mut(k).copy_from_slice(&s.x);
     }
-    // Row normalisation; a row that is all zero (possible in
-    // principle) falls back to the simplex projection of the
-    // unbounded row.
+    report.seconds[1] = clock.elapsed().as_secs_f64();
+    Ok((wf, unbounded))
+}
+
+/// Rows of the per-handle weights normalised to sum to one; a row that is
+/// all zero (possible in principle) falls back to the simplex projection of
+/// the unbounded row.
+fn normalise_rows(raw: &DMatrix<f64>, unbounded: &DMatrix<f64>) -> DMatrix<f64> {
+    let (nf, nh) = raw.shape();
+    let mut wf = raw.clone();
     let mut row = vec![0.0; nh];
     for i in 0..nf {
         let s: f64 = wf.row(i).sum();
@@ -447,7 +582,23 @@ fn per_handle(
             }
         }
     }
-    Ok(wf)
+    wf
+}
+
+/// Sets entries `≤ theta` to zero, except each row's largest entry (so
+/// every row keeps a non-empty support).
+fn drop_small_entries(x: &mut DMatrix<f64>, theta: f64) {
+    let m = x.ncols();
+    for i in 0..x.nrows() {
+        let keep = (0..m)
+            .max_by(|&p, &q| x[(i, p)].total_cmp(&x[(i, q)]).then(q.cmp(&p)))
+            .unwrap_or(0);
+        for k in 0..m {
+            if k != keep && x[(i, k)] <= theta {
+                x[(i, k)] = 0.0;
+            }
+        }
+    }
 }
 
 /// Stored diagonal of a square sparse matrix.

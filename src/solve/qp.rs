@@ -1,29 +1,34 @@
-//! Small convex quadratic programs on top of the sparse Cholesky wrapper.
+//! Small convex quadratic programs on top of sparse Cholesky factorisations.
 //!
 //! * [`BoxQp`] — `min ½ xᵀA x + bᵀx` subject to `lo ≤ x ≤ hi` (scalar bounds)
 //!   for a sparse symmetric positive-definite `A`, by a primal–dual active-set
-//!   method. Every iteration solves one equality-constrained system; the
-//!   active variables are eliminated by replacing their rows and columns with
-//!   a scaled identity *while keeping the stored pattern* (explicit zeros), so
-//!   the AMD ordering and symbolic factorisation are computed once per matrix
-//!   and reused for every active set and every right-hand side.
+//!   method. Every iteration factorises the free block `A_FF` in the induced
+//!   order of one AMD ordering of `A` computed once (module `ordered`), so no
+//!   iteration pays for an ordering and the cost shrinks with the free set.
+//!   `BoxQp` is `Sync`: many right-hand sides can be solved in parallel.
 //! * [`RowAdmm`] — `min Σ_k ½ x_kᵀA x_k + b_kᵀx_k` over an `n × m`
 //!   matrix `X` (columns `x_k`) whose every row lies on the probability simplex
-//!   (`X_ik ≥ 0`, `Σ_k X_ik = 1`), by ADMM with one factorisation of
-//!   `A + ρD` shared by all columns and iterations.
+//!   (`X_ik ≥ 0`, `Σ_k X_ik = 1`) or in a box, by ADMM with one factorisation
+//!   of `A + ρD` shared by all columns and iterations.
+//! * [`simplex_rows_qp`] — the same simplex-constrained problem solved
+//!   exactly by an active-set method on the row supports.
 //!
-//! Both are generic numerics (no meshes); bounded biharmonic weights
+//! All are generic numerics (no meshes); bounded biharmonic weights
 //! (`skin::bbw`) are their main user.
 
-use nalgebra::DMatrix;
+mod ordered;
 
+use nalgebra::DMatrix;
+use rayon::prelude::*;
+
+use self::ordered::{Ordered, OrderedCholesky, UpperCsc};
 use super::{SparseCholesky, SparseMatrix, SymbolicCholesky};
 use crate::{Error, Result};
 
-/// [`BoxQp`] factorises only the free block (fresh AMD ordering) when fewer
-/// than this fraction of the variables are free, and otherwise the
-/// full-size matrix with the reused symbolic factorisation.
-pub const SUBSYSTEM_FRACTION: f64 = 0.6;
+/// [`RowAdmm`] solves its right-hand sides in blocks of this many columns,
+/// the blocks in parallel (multi-column solves are cheaper per column; the
+/// fixed block size keeps results independent of the thread count).
+pub const ADMM_COLUMN_BLOCK: usize = 4;
 
 /// State of one variable in the active-set method.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -36,57 +41,106 @@ enum Bound {
 /// Result of [`BoxQp::solve`].
 #[derive(Clone, Debug)]
 pub struct BoxQpSolution {
-    /// The minimiser (exactly within the bounds).
+    /// The last iterate clamped to the bounds (exactly within them).
     pub x: Vec<f64>,
-    /// Active-set iterations (= numeric factorisations) used.
+    /// Active-set iterations (= numeric factorisations of a free block) used.
     pub iterations: usize,
     /// Number of variables at a bound at the end.
     pub n_active: usize,
+    /// Final active set: `true` for variables fixed at a bound (their values
+    /// in `x` are exactly the bound; free variables may also sit at a bound
+    /// after clamping).
+    pub at_bound: Vec<bool>,
+    /// Whether the active set settled within the iteration limit (if not,
+    /// `x` is the clamped last iterate and [`BoxQpSolution::kkt_residual`]
+    /// says how far from optimal it is).
+    pub converged: bool,
+    /// KKT residual of the returned `x`, in units of `x` (scale-free): the
+    /// largest `|g_i| / A_ii` over variables strictly inside the bounds, and
+    /// the largest wrong-signed `g_i / A_ii` over variables at a bound, with
+    /// `g = A x + b`. It is how far variable `i` alone would move if it were
+    /// re-optimised with the others fixed; 0 at the exact optimum.
+    pub kkt_residual: f64,
 }
 
 /// Bound-constrained sparse QP `min ½ xᵀA x + bᵀx, lo ≤ x ≤ hi`, `A` symmetric
 /// positive definite. Build once per matrix ([`BoxQp::new`] computes the
-/// fill-reducing ordering), then [`BoxQp::solve`] for many `b`.
+/// fill-reducing ordering), then [`BoxQp::solve`] for many `b` (from several
+/// threads if wanted: every solve is sequential and independent).
 ///
-/// Algorithm (primal–dual active set, as in libigl's `active_set` and
-/// Hintermüller–Ito–Kunisch): start from the active set of a warm start `x0`
-/// (variables outside the bounds), then repeat: solve the system with the
-/// active variables fixed at their bounds; add free variables that violate a
-/// bound by more than `tol·(hi − lo)`; release active variables whose
-/// multiplier (the gradient `g = A x + b`) has the wrong sign by more than
-/// `tol·(hi − lo)·A_ii` (i.e. releasing `x_i` alone would move it by more than
-/// `tol·(hi − lo)`: a per-row scale-free test); stop when the set no longer
-/// changes. The result is clamped to the bounds (it
-/// moves by at most `tol·(hi − lo)`).
+/// Algorithm: the primal–dual active-set method (Hintermüller–Ito–Kunisch
+/// 2003; libigl's `active_set` is the same iteration). Start from the active
+/// set of a warm start `x0` (variables outside the bounds), then repeat: solve
+/// the equality-constrained problem with the active variables fixed at their
+/// bounds (one sparse Cholesky of the free block `A_FF`); fix *every* free
+/// variable that violates a bound by more than `tol·(hi − lo)`; release *every*
+/// active variable whose multiplier (the gradient `g = A x + b`) has the wrong
+/// sign by more than `tol·(hi − lo)·A_ii` (releasing `x_i` alone would move it
+/// by more than `tol·(hi − lo)`: a per-row, scale-free test); stop when the
+/// set no longer changes. The result is clamped to the bounds (it moves by at
+/// most `tol·(hi − lo)`), and its KKT residual is reported.
 #[derive(Clone, Debug)]
 pub struct BoxQp {
     a: SparseMatrix,
     diag: Vec<f64>,
-    symbolic: SymbolicCholesky,
+    ordered: Ordered,
+}
+
+/// Checks that `a` is square, finite, has a positive stored diagonal and is
+/// symmetric (pattern and values, to `1e-12` relative); returns the diagonal.
+fn check_spd_candidate(a: &SparseMatrix, what: &str) -> Result<Vec<f64>> {
+    let n = a.nrows();
+    if n == 0 || a.ncols() != n {
+        return Err(Error::invalid(format!(
+            "{what}: matrix must be square and non-empty, got {}×{}",
+            a.nrows(),
+            a.ncols()
+        )));
+    }
+    let mut diag = vec![0.0; n];
+    let mut max_abs = 0.0f64;
+    for (i, j, &v) in a.triplet_iter() {
+        if !v.is_finite() {
+            return Err(Error::invalid(format!(
+                "{what}: matrix entry ({i}, {j}) is not finite ({v})"
+            )));
+        }
+        max_abs = max_abs.max(v.abs());
+        if i == j {
+            diag[i] = v;
+        }
+    }
+    if let Some(i) = diag.iter().position(|&d| d <= 0.0) {
+        return Err(Error::invalid(format!(
+            "{what}: matrix needs a positive stored diagonal; A({i}, {i}) = {}",
+            diag[i]
+        )));
+    }
+    let t = a.transpose();
+    let same_pattern = t.col_offsets() == a.col_offsets() && t.row_indices() == a.row_indices();
+    let tol = 1e-12 * max_abs;
+    if !same_pattern
+        || t.values()
+            .iter()
+            .zip(a.values())
+            .any(|(x, y)| (x - y).abs() > tol)
+    {
+        return Err(Error::invalid(format!(
+            "{what}: matrix is not symmetric (both triangles must be stored, equal)"
+        )));
+    }
+    Ok(diag)
 }
 
 impl BoxQp {
-    /// Analyses `a` (square, symmetric, every diagonal entry stored and
-    /// positive).
+    /// Analyses `a` (square, symmetric with both triangles stored, every
+    /// diagonal entry stored and positive): one AMD ordering.
     pub fn new(a: &SparseMatrix) -> Result<Self> {
-        let symbolic = SymbolicCholesky::new(a)?;
-        let n = a.nrows();
-        let mut diag = vec![0.0; n];
-        for (i, j, &v) in a.triplet_iter() {
-            if i == j {
-                diag[i] = v;
-            }
-        }
-        if let Some(i) = diag.iter().position(|&d| d <= 0.0) {
-            return Err(Error::invalid(format!(
-                "box QP matrix needs a positive stored diagonal; A({i}, {i}) = {}",
-                diag[i]
-            )));
-        }
+        let diag = check_spd_candidate(a, "box QP")?;
         Ok(BoxQp {
             a: a.clone(),
             diag,
-            symbolic,
+            ordered: Ordered::new(a)?,
         })
     }
 
@@ -100,10 +154,34 @@ impl BoxQp {
         &self.a
     }
 
-    /// The symbolic factorisation of `A`'s pattern (e.g. to factorise `A`
-    /// itself for an unconstrained warm start).
-    pub fn symbolic(&self) -> &SymbolicCholesky {
-        &self.symbolic
+    /// Solves the unconstrained problems `A X = −B` for all columns of `b`
+    /// (one factorisation), e.g. for a warm start.
+    pub fn solve_unconstrained(&self, b: &DMatrix<f64>) -> Result<DMatrix<f64>> {
+        let n = self.n();
+        if b.nrows() != n {
+            return Err(Error::invalid(format!(
+                "box QP of dimension {n} got a right-hand side with {} rows",
+                b.nrows()
+            )));
+        }
+        let m = b.ncols();
+        let mut x = DMatrix::zeros(n, m);
+        let Some((vars, fac)) = self.ordered.factorize_subset(&vec![true; n])? else {
+            return Ok(x);
+        };
+        let mut y = vec![0.0; n * m];
+        for k in 0..m {
+            for (r, &i) in vars.iter().enumerate() {
+                y[k * n + r] = -b[(i, k)];
+            }
+        }
+        fac.solve_in_place(&mut y, m);
+        for k in 0..m {
+            for (r, &i) in vars.iter().enumerate() {
+                x[(i, k)] = y[k * n + r];
+            }
+        }
+        Ok(x)
     }
 
     /// `A x + b`.
@@ -113,11 +191,31 @@ impl BoxQp {
         g
     }
 
+    /// KKT residual of a point within the bounds (see
+    /// [`BoxQpSolution::kkt_residual`]).
+    pub fn kkt_residual(&self, x: &[f64], b: &[f64], lo: f64, hi: f64) -> f64 {
+        let g = self.gradient(x, b);
+        let mut r = 0.0f64;
+        for i in 0..x.len() {
+            let s = g[i] / self.diag[i];
+            let v = if x[i] <= lo {
+                (-s).max(0.0)
+            } else if x[i] >= hi {
+                s.max(0.0)
+            } else {
+                s.abs()
+            };
+            r = r.max(v);
+        }
+        r
+    }
+
     /// Solves the QP for linear term `b`. `x0` (optional warm start) only
     /// seeds the initial active set: variables of `x0` outside the bounds
     /// start fixed at the violated bound. Errors if the bounds are empty or
-    /// not finite, on length mismatches, or if the active set has not settled
-    /// after `max_iter` iterations.
+    /// not finite, or on length mismatches. If the active set has not settled
+    /// after `max_iter` iterations the clamped last iterate is returned with
+    /// `converged = false` and its KKT residual.
     pub fn solve(
         &self,
         b: &[f64],
@@ -140,6 +238,11 @@ impl BoxQp {
                 "box QP bounds must be finite with lo < hi, got [{lo}, {hi}]"
             )));
         }
+        if !(tol >= 0.0 && tol.is_finite()) {
+            return Err(Error::invalid(format!(
+                "box QP tolerance must be finite and ≥ 0, got {tol}"
+            )));
+        }
         let feas_tol = tol * (hi - lo);
         let mut state: Vec<Bound> = match x0 {
             Some(x0) => x0
@@ -156,81 +259,47 @@ impl BoxQp {
                 .collect(),
             None => vec![Bound::Free; n],
         };
-        let mut reduced = self.a.clone();
-        for it in 1..=max_iter.max(1) {
-            let value = |s: Bound| match s {
-                Bound::Lower => lo,
-                Bound::Upper => hi,
-                Bound::Free => 0.0,
-            };
-            // Matrix: active rows/columns → diag_i · e_i, pattern kept.
+        let value = |s: Bound| match s {
+            Bound::Lower => lo,
+            Bound::Upper => hi,
+            Bound::Free => 0.0,
+        };
+        let mut x = vec![0.0; n];
+        let mut free = vec![false; n];
+        let max_iter = max_iter.max(1);
+        let mut converged = false;
+        let mut iterations = 0;
+        for it in 1..=max_iter {
+            iterations = it;
+            // x_A at the bounds; rhs = −b − A_FA x_A on the free block.
+            for i in 0..n {
+                x[i] = value(state[i]);
+                free[i] = state[i] == Bound::Free;
+            }
             let mut rhs: Vec<f64> = b.iter().map(|v| -v).collect();
             {
-                let (offsets, rows, vals) =
+                let (off, rows, vals) =
                     (self.a.col_offsets(), self.a.row_indices(), self.a.values());
-                let out = reduced.values_mut();
                 for j in 0..n {
-                    for p in offsets[j]..offsets[j + 1] {
-                        let i = rows[p];
-                        let (si, sj) = (state[i], state[j]);
-                        out[p] = if si == Bound::Free && sj == Bound::Free {
-                            vals[p]
-                        } else if i == j {
-                            self.diag[i]
-                        } else {
-                            if si == Bound::Free {
-                                // Column j active: move A_ij x_j to the rhs.
-                                rhs[i] -= vals[p] * value(sj);
-                            }
-                            0.0
-                        };
+                    if free[j] || x[j] == 0.0 {
+                        continue;
+                    }
+                    for p in off[j]..off[j + 1] {
+                        rhs[rows[p]] -= vals[p] * x[j];
                     }
                 }
             }
-            for i in 0..n {
-                if state[i] != Bound::Free {
-                    rhs[i] = self.diag[i] * value(state[i]);
+            if let Some((vars, fac)) = self.ordered.factorize_subset(&free)? {
+                let mut y: Vec<f64> = vars.iter().map(|&i| rhs[i]).collect();
+                fac.solve_in_place(&mut y, 1);
+                for (&i, &v) in vars.iter().zip(&y) {
+                    x[i] = v;
                 }
             }
-            let n_free = state.iter().filter(|&&s| s == Bound::Free).count();
-            if n_free == 0 {
-                // Nothing to solve: every variable sits at a bound.
-            } else if (n_free as f64) < SUBSYSTEM_FRACTION * n as f64 {
-                // Few free variables: a fresh ordering of the free block is
-                // much cheaper than the full-size factorisation.
-                let mut index = vec![usize::MAX; n];
-                let mut free = Vec::with_capacity(n_free);
-                for i in 0..n {
-                    if state[i] == Bound::Free {
-                        index[i] = free.len();
-                        free.push(i);
-                    }
-                }
-                let (offsets, rows, vals) =
-                    (self.a.col_offsets(), self.a.row_indices(), self.a.values());
-                let mut trip = Vec::new();
-                for &j in &free {
-                    for p in offsets[j]..offsets[j + 1] {
-                        if index[rows[p]] != usize::MAX {
-                            trip.push((index[rows[p]], index[j], vals[p]));
-                        }
-                    }
-                }
-                let sub = super::sparse_from_triplets(n_free, n_free, trip);
-                let mut y: Vec<f64> = free.iter().map(|&i| rhs[i]).collect();
-                SparseCholesky::new(&sub)?.solve_in_place(&mut y, 1)?;
-                for (&i, &v) in free.iter().zip(&y) {
-                    rhs[i] = v;
-                }
-            } else {
-                let fac = self.symbolic.factorize(&reduced)?;
-                fac.solve_in_place(&mut rhs, 1)?;
-            }
-            let mut x = rhs;
-            for i in 0..n {
-                if state[i] != Bound::Free {
-                    x[i] = value(state[i]);
-                }
+            if x.iter().any(|v| !v.is_finite()) {
+                return Err(Error::numerical(
+                    "box QP: the free-block solve produced non-finite values",
+                ));
             }
             let g = self.gradient(&x, b);
             let mut changed = false;
@@ -246,20 +315,22 @@ impl BoxQp {
                 state[i] = next;
             }
             if !changed {
-                for v in &mut x {
-                    *v = v.clamp(lo, hi);
-                }
-                return Ok(BoxQpSolution {
-                    x,
-                    iterations: it,
-                    n_active: state.iter().filter(|&&s| s != Bound::Free).count(),
-                });
+                converged = true;
+                break;
             }
         }
-        Err(Error::numerical(format!(
-            "box-constrained QP: active set did not settle within {max_iter} iterations \
-             (raise max_iter)"
-        )))
+        for v in &mut x {
+            *v = v.clamp(lo, hi);
+        }
+        let kkt_residual = self.kkt_residual(&x, b, lo, hi);
+        Ok(BoxQpSolution {
+            iterations,
+            n_active: state.iter().filter(|&&s| s != Bound::Free).count(),
+            at_bound: state.iter().map(|&s| s != Bound::Free).collect(),
+            converged,
+            kkt_residual,
+            x,
+        })
     }
 }
 
@@ -572,7 +643,12 @@ impl RowAdmm {
                     x[(i, k)] = rho * self.d[i] * (z[(i, k)] - u[(i, k)]) - b[(i, k)];
                 }
             }
-            fac.solve_in_place(x.as_mut_slice(), m)?;
+            // Columns are independent: solved in fixed blocks of
+            // ADMM_COLUMN_BLOCK columns, the blocks in parallel (the blocks
+            // do not depend on the thread count, so neither does X).
+            x.as_mut_slice()
+                .par_chunks_mut(n * ADMM_COLUMN_BLOCK)
+                .try_for_each(|cols| fac.solve_in_place(cols, cols.len() / n))?;
             // Z-step and U-step.
             rp = 0.0;
             rd = 0.0;
@@ -663,6 +739,54 @@ pub struct SimplexQpSolution {
     pub iterations: usize,
     /// Size of the last reduced system.
     pub n_variables: usize,
+    /// Whether the supports settled within the iteration limit (if not, `x`
+    /// is the last iterate projected onto the simplex row by row).
+    pub converged: bool,
+    /// KKT residual of `x` in units of `x` (scale-free, per row `i`): with
+    /// `G = A X + B` and `ν_i = G_ip` at the row's largest entry `p`, the
+    /// largest `|G_ik − ν_i| / A_ii` over `k` with `X_ik > 0` and the largest
+    /// `(ν_i − G_ik)⁺ / A_ii` over `k` with `X_ik = 0`; 0 at the optimum.
+    pub kkt_residual: f64,
+}
+
+/// `G = A X + B`, column by column.
+fn gradient_matrix(a: &SparseMatrix, x: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
+    let n = x.nrows();
+    let mut g = b.clone();
+    g.as_mut_slice()
+        .par_chunks_mut(n.max(1))
+        .zip(x.as_slice().par_chunks(n.max(1)))
+        .for_each(|(gk, xk)| sym_matvec_add(a, xk, gk));
+    g
+}
+
+/// KKT residual of a row-stochastic `x` for the simplex-rows QP (see
+/// [`SimplexQpSolution::kkt_residual`]).
+pub fn simplex_rows_kkt_residual(a: &SparseMatrix, b: &DMatrix<f64>, x: &DMatrix<f64>) -> f64 {
+    let g = gradient_matrix(a, x, b);
+    let mut diag = vec![0.0; a.nrows()];
+    for (i, j, &v) in a.triplet_iter() {
+        if i == j {
+            diag[i] = v;
+        }
+    }
+    let m = x.ncols();
+    let mut r = 0.0f64;
+    for i in 0..x.nrows() {
+        let p = (0..m)
+            .max_by(|&p, &q| x[(i, p)].total_cmp(&x[(i, q)]).then(q.cmp(&p)))
+            .unwrap_or(0);
+        let nu = g[(i, p)];
+        for k in 0..m {
+            let d = (g[(i, k)] - nu) / diag[i];
+            r = r.max(if x[(i, k)] > 0.0 {
+                d.abs()
+            } else {
+                (-d).max(0.0)
+            });
+        }
+    }
+    r
 }
 
 /// `min Σ_k ½ x_kᵀA x_k + b_kᵀx_k` over `X` (n × m) with every row on the
@@ -671,15 +795,20 @@ pub struct SimplexQpSolution {
 /// supports `S_i = {k : X_ik > 0}`.
 ///
 /// For fixed supports, each row's partition of unity is eliminated by
-/// writing one support entry (the pivot `p(i)`, its lowest column) as one
+/// writing one support entry (the pivot `p(i)`: the row's largest entry when
+/// it was chosen, kept while it stays in the support) as one
 /// minus the others; the remaining `Σ_i (|S_i| − 1)` unknowns solve one
-/// sparse SPD system `Eᵀ(I ⊗ A)E v = −Eᵀ(A C + B)` (Cholesky, with a fresh
-/// ordering since the pattern changes). Then entries below `−tol` leave
-/// their support, and a column `k ∉ S_i` joins it when its multiplier
-/// `G_ik − G_ip(i)` (`G = A X + B`, the cost of moving weight from the pivot
-/// to `k`) is below `−tol · A_ii`. When the supports no longer change the
-/// KKT conditions hold to `tol` (per-row, scale-free) and the result is the
-/// optimum; entries in `[−tol, 0)` are set to 0 and the row rescaled.
+/// sparse SPD system `Eᵀ(I ⊗ A)E v = −Eᵀ(A C + B)`. Its unknowns are
+/// numbered row by row in one AMD ordering of `A` computed once (so each
+/// row's unknowns form a block and no iteration pays for an ordering), and
+/// its upper triangle is assembled directly in that order. Then entries below
+/// `−tol` leave their support, and a column `k ∉ S_i` joins it when its
+/// multiplier `G_ik − G_ip(i)` (`G = A X + B`, the cost of moving weight from
+/// the pivot to `k`) is below `−tol · A_ii`. When the supports no longer
+/// change the KKT conditions hold to `tol` (per-row, scale-free) and the
+/// result is the optimum; entries in `[−tol, 0)` are set to 0 and the row
+/// rescaled. If `max_iter` is reached first, the last iterate is projected
+/// onto the simplex row by row and returned with `converged = false`.
 ///
 /// `x0` (n × m) seeds the supports (`x0_ik > 0`; the largest entry if none).
 pub fn simplex_rows_qp(
@@ -702,18 +831,8 @@ pub fn simplex_rows_qp(
             x0.ncols()
         )));
     }
-    let mut diag = vec![0.0; n];
-    for (i, j, &v) in a.triplet_iter() {
-        if i == j {
-            diag[i] = v;
-        }
-    }
-    if let Some(i) = diag.iter().position(|&d| !(d.is_finite() && d > 0.0)) {
-        return Err(Error::invalid(format!(
-            "simplex-rows QP needs a positive diagonal; A({i}, {i}) = {}",
-            diag[i]
-        )));
-    }
+    let diag = check_spd_candidate(a, "simplex-rows QP")?;
+    let ordered = Ordered::new(a)?;
     // support[i*m + k]
     let mut support = vec![false; n * m];
     for i in 0..n {
@@ -732,24 +851,32 @@ pub fn simplex_rows_qp(
         }
     }
     let (off, rows, vals) = (a.col_offsets(), a.row_indices(), a.values());
+    let u = &ordered.upper;
+    // Pivot of each row: its largest support entry (first x0, then the
+    // last iterate); kept while it stays in the support.
+    let mut x = x0.clone();
+    let mut nv = 0;
+    let mut converged = false;
+    let mut iterations = 0;
+    let mut pivot = vec![usize::MAX; n];
+    // Unknowns of row i: var_start[i] .. var_start[i] + handles[i].len().
+    let mut var_start = vec![0usize; n];
+    let mut handles: Vec<Vec<usize>> = vec![Vec::new(); n];
     for it in 1..=max_iter.max(1) {
-        // Pivots and variable numbering.
-        let mut pivot = vec![0usize; n];
-        let mut var = vec![usize::MAX; n * m];
-        let mut nv = 0;
-        for i in 0..n {
-            let mut first = true;
-            for k in 0..m {
-                if support[i * m + k] {
-                    if first {
-                        pivot[i] = k;
-                        first = false;
-                    } else {
-                        var[i * m + k] = nv;
-                        nv += 1;
-                    }
-                }
+        iterations = it;
+        nv = 0;
+        for &i in &ordered.order {
+            if pivot[i] == usize::MAX || !support[i * m + pivot[i]] {
+                pivot[i] = (0..m)
+                    .filter(|&k| support[i * m + k])
+                    .max_by(|&p, &q| x[(i, p)].total_cmp(&x[(i, q)]).then(q.cmp(&p)))
+                    .unwrap_or(0);
             }
+            let hs = &mut handles[i];
+            hs.clear();
+            hs.extend((0..m).filter(|&k| k != pivot[i] && support[i * m + k]));
+            var_start[i] = nv;
+            nv += hs.len();
         }
         // G0 = A C + B with C the pivot indicator.
         let mut g0 = b.clone();
@@ -758,66 +885,57 @@ pub fn simplex_rows_qp(
                 g0[(rows[p], pivot[j])] += vals[p];
             }
         }
-        let mut x = DMatrix::<f64>::zeros(n, m);
+        x.fill(0.0);
         for i in 0..n {
             x[(i, pivot[i])] = 1.0;
         }
         if nv > 0 {
-            let mut trip = Vec::new();
             let mut rhs = vec![0.0; nv];
             for i in 0..n {
-                for k in 0..m {
-                    let v = var[i * m + k];
-                    if v != usize::MAX {
-                        rhs[v] = -(g0[(i, k)] - g0[(i, pivot[i])]);
-                    }
+                for (t, &k) in handles[i].iter().enumerate() {
+                    rhs[var_start[i] + t] = -(g0[(i, k)] - g0[(i, pivot[i])]);
                 }
             }
-            for j in 0..n {
-                for p in off[j]..off[j + 1] {
-                    let i = rows[p];
-                    let aij = vals[p];
-                    for k in 0..m {
-                        let vi = var[i * m + k];
-                        if vi == usize::MAX {
-                            continue;
-                        }
-                        for l in 0..m {
-                            let vj = var[j * m + l];
-                            if vj == usize::MAX {
-                                continue;
-                            }
-                            let c =
-                                (k == l) as i32 - (k == pivot[j]) as i32 - (pivot[i] == l) as i32
-                                    + (pivot[i] == pivot[j]) as i32;
+            // Upper triangle, column (j, l): rows (i, k) for neighbours i
+            // earlier in the order, and (j, k ≤ l).
+            let mut h = UpperCsc::with_capacity(nv, 0);
+            for (pj, &j) in ordered.order.iter().enumerate() {
+                let pvj = pivot[j];
+                for (tl, &l) in handles[j].iter().enumerate() {
+                    for e in u.col_ptr[pj]..u.col_ptr[pj + 1] {
+                        let i = ordered.order[u.row_idx[e]];
+                        let aij = u.values[e];
+                        let pvi = pivot[i];
+                        let hi_ = &handles[i];
+                        let last = if i == j { tl + 1 } else { hi_.len() };
+                        for (tk, &k) in hi_[..last].iter().enumerate() {
+                            let c = (k == l) as i32 - (k == pvj) as i32 - (pvi == l) as i32
+                                + (pvi == pvj) as i32;
                             if c != 0 {
-                                trip.push((vi, vj, aij * c as f64));
+                                h.push(var_start[i] + tk, aij * c as f64);
                             }
                         }
                     }
+                    h.end_column();
                 }
             }
-            let h = super::sparse_from_triplets(nv, nv, trip);
-            let fac = SparseCholesky::new(&h)?;
-            fac.solve_in_place(&mut rhs, 1)?;
+            let fac = OrderedCholesky::factorize(&h)?;
+            fac.solve_in_place(&mut rhs, 1);
+            if rhs.iter().any(|v| !v.is_finite()) {
+                return Err(Error::numerical(
+                    "simplex-rows QP: the reduced solve produced non-finite values",
+                ));
+            }
             for i in 0..n {
-                for k in 0..m {
-                    let v = var[i * m + k];
-                    if v != usize::MAX {
-                        x[(i, k)] = rhs[v];
-                        x[(i, pivot[i])] -= rhs[v];
-                    }
+                for (t, &k) in handles[i].iter().enumerate() {
+                    let v = rhs[var_start[i] + t];
+                    x[(i, k)] = v;
+                    x[(i, pivot[i])] -= v;
                 }
             }
         }
         // Gradient and support update.
-        let mut g = b.clone();
-        for k in 0..m {
-            let xk: Vec<f64> = x.column(k).iter().copied().collect();
-            let mut gk: Vec<f64> = g.column(k).iter().copied().collect();
-            sym_matvec_add(a, &xk, &mut gk);
-            g.column_mut(k).copy_from_slice(&gk);
-        }
+        let g = gradient_matrix(a, &x, b);
         let mut changed = false;
         for i in 0..n {
             let gp = g[(i, pivot[i])];
@@ -841,27 +959,40 @@ pub fn simplex_rows_qp(
             }
         }
         if !changed {
-            for i in 0..n {
-                let mut sum = 0.0;
-                for k in 0..m {
-                    let v = x[(i, k)].max(0.0);
-                    x[(i, k)] = v;
-                    sum += v;
-                }
-                for k in 0..m {
-                    x[(i, k)] /= sum;
-                }
-            }
-            return Ok(SimplexQpSolution {
-                x,
-                iterations: it,
-                n_variables: nv,
-            });
+            converged = true;
+            break;
         }
     }
-    Err(Error::numerical(format!(
-        "simplex-rows QP: supports did not settle within {max_iter} iterations (raise max_iter)"
-    )))
+    let mut row = vec![0.0; m];
+    for i in 0..n {
+        if converged {
+            let mut sum = 0.0;
+            for k in 0..m {
+                let v = x[(i, k)].max(0.0);
+                x[(i, k)] = v;
+                sum += v;
+            }
+            for k in 0..m {
+                x[(i, k)] /= sum;
+            }
+        } else {
+            for k in 0..m {
+                row[k] = x[(i, k)];
+            }
+            project_to_simplex(&mut row);
+            for k in 0..m {
+                x[(i, k)] = row[k];
+            }
+        }
+    }
+    let kkt_residual = simplex_rows_kkt_residual(a, b, &x);
+    Ok(SimplexQpSolution {
+        x,
+        iterations,
+        n_variables: nv,
+        converged,
+        kkt_residual,
+    })
 }
 
 #[cfg(test)]
