@@ -11,6 +11,7 @@ use clap::{Args, ValueEnum};
 use serde_json::{json, Value};
 
 use deformlab::mesh::io::{read_mesh, write_atomic};
+use deformlab::skin::bbw::{BbwOptions, WeightMode};
 use deformlab::transfer::keypoints::{
     select_keypoints, ErrorNorm, KeypointOptions, KeypointSelection, SelectionMode,
 };
@@ -51,6 +52,16 @@ pub enum NormArg {
     Rms,
 }
 
+/// Bounded biharmonic weights of exact-mode trials on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum WeightsArg {
+    /// Each handle's weights bounded separately, rows normalised (Jacobson
+    /// et al. 2011 practice, libigl's bbw; the default).
+    PerHandle,
+    /// BDT Eq. 1 literally: partition of unity as a constraint (slower).
+    Coupled,
+}
+
 /// Source, deformed sources and the selection settings (shared by
 /// `keypoints` and `transfer`).
 #[derive(Args, Debug, Clone)]
@@ -79,6 +90,9 @@ pub struct SelectArgs {
     /// Error compared with ε.
     #[arg(long, value_enum, default_value_t = NormArg::Mean)]
     pub error_norm: NormArg,
+    /// Bounded biharmonic weights of the exact-mode trials.
+    #[arg(long, value_enum, default_value_t = WeightsArg::PerHandle)]
+    pub weights: WeightsArg,
 }
 
 impl SelectArgs {
@@ -96,6 +110,10 @@ impl SelectArgs {
             },
             ..KeypointOptions::default()
         };
+        o.weights = BbwOptions::with_mode(match self.weights {
+            WeightsArg::PerHandle => WeightMode::PerHandle,
+            WeightsArg::Coupled => WeightMode::Coupled,
+        });
         if let Some(k) = self.max_keypoints {
             o.max_keypoints = k;
         }
@@ -139,6 +157,7 @@ impl SelectArgs {
             "max_keypoints": opts.max_keypoints,
             "mode": self.mode.name(),
             "error_norm": format!("{:?}", opts.error_norm),
+            "weights": format!("{:?}", opts.weights.mode),
         })
     }
 }
