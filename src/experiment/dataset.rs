@@ -150,8 +150,11 @@ impl Collection {
         Ok(Collection {
             kind: "synthetic",
             description: format!(
-                "synthetic FAUST-style set (seed {}), {} subjects × {} poses, {n} vertices",
-                spec.seed, spec.subjects, spec.poses
+                "synthetic FAUST-style set (seed {}), {} subject{} × {} poses, {n} vertices",
+                spec.seed,
+                spec.subjects,
+                if spec.subjects == 1 { "" } else { "s" },
+                spec.poses
             ),
             subjects,
             labels: Some(set.labels.clone()),

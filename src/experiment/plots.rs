@@ -835,36 +835,55 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             };
             let scale = ErrorScale::of_reference(if fits { &source } else { &target })?.unit_sphere;
             let kp0 = keypoints_of(shown[0].1);
-            let mut ps = vec![
-                Panel {
-                    label: "source A".into(),
-                    mesh: source.clone(),
-                    coloring: Coloring::Plain,
-                    keypoints: kp0,
-                },
-                Panel {
-                    label: format!("deformed source A′ (pose {pose})"),
-                    mesh: deformed.clone(),
-                    coloring: Coloring::Plain,
-                    keypoints: Vec::new(),
-                },
-            ];
-            if !fits {
-                ps.push(Panel {
-                    label: "target B".into(),
-                    mesh: target.clone(),
-                    coloring: Coloring::Plain,
-                    keypoints: Vec::new(),
+            // FBT registration (shape completion): the template, the partial
+            // target it is registered to, the full target, then the results.
+            let registration = !fits
+                && shown
+                    .iter()
+                    .all(|(_, r)| r.get("kind").map(String::as_str) == Some("fbt"));
+            let mut ps = if registration {
+                let partial = shown.iter().find_map(|(_, r)| {
+                    let p = mdir.join(&r["method"]).join(format!("partial_{pose}.ply"));
+                    p.exists().then_some(p)
                 });
+                let (label, mesh) = match partial {
+                    Some(p) => (format!("partial target (pose {pose})"), read_mesh(&p)?),
+                    None => (format!("target (pose {pose})"), deformed.clone()),
+                };
+                let mut ps = vec![
+                    Panel {
+                        label: "template (reference shape)".into(),
+                        mesh: source.clone(),
+                        coloring: Coloring::Plain,
+                        keypoints: kp0,
+                    },
+                    Panel {
+                        label,
+                        mesh,
+                        coloring: Coloring::Plain,
+                        keypoints: Vec::new(),
+                    },
+                ];
                 if let Some(t) = &reference {
                     ps.push(Panel {
-                        label: "ground truth B′".into(),
+                        label: "full target (ground truth)".into(),
                         mesh: t.clone(),
                         coloring: Coloring::Plain,
                         keypoints: Vec::new(),
                     });
                 }
-            }
+                ps
+            } else {
+                header_panels(
+                    &source,
+                    &target,
+                    &deformed,
+                    reference.as_ref(),
+                    pose,
+                    fits,
+                    kp0,
+                )
+            };
             let mut results: Vec<ResultPanel> = Vec::new();
             for (g, r) in &shown {
                 let m = &r["method"];
@@ -903,6 +922,8 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                         hi,
                         label: if fits {
                             "error to A′ (unit-sphere units of A)".into()
+                        } else if registration {
+                            "distance to the true position (unit-sphere units)".into()
                         } else {
                             "error to ground truth (unit-sphere units of B)".into()
                         },
@@ -922,20 +943,32 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                             "{}: deformed source per method (case {id}, pose {pose})",
                             ctx.title
                         )
+                    } else if registration {
+                        format!(
+                            "{}: registration results (case {id}, pose {pose})",
+                            ctx.title
+                        )
                     } else {
                         format!("{}: transfer results (case {id}, pose {pose})", ctx.title)
                     }
                 }),
-                caption: Some(format!(
-                    "{}; {}; spheres: key points (on A: those of {}); colour: per-vertex error",
-                    ctx.caption,
-                    if fits {
-                        "right: the deformed source D_S(A) of each method"
-                    } else {
-                        "right: the transferred B′ of each method"
-                    },
-                    shown[0].0
-                )),
+                caption: Some(if registration {
+                    format!(
+                        "{}; right: the template registered by each method",
+                        ctx.caption
+                    )
+                } else {
+                    format!(
+                        "{}; {}; spheres: key points (on A: those of {}); colour: per-vertex error",
+                        ctx.caption,
+                        if fits {
+                            "right: the deformed source D_S(A) of each method"
+                        } else {
+                            "right: the transferred B′ of each method"
+                        },
+                        shown[0].0
+                    )
+                }),
                 panels: ps,
                 camera: camera(&ctx.config),
                 panel_size: (260, 360),
@@ -952,6 +985,50 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The left panels of a BDT figure: source (with key points), deformed
+/// source, and for transfers the target and the ground truth.
+fn header_panels(
+    source: &Mesh,
+    target: &Mesh,
+    deformed: &Mesh,
+    reference: Option<&Mesh>,
+    pose: &str,
+    fits: bool,
+    kp0: Vec<(usize, usize)>,
+) -> Vec<Panel> {
+    let mut ps = vec![
+        Panel {
+            label: "source A".into(),
+            mesh: source.clone(),
+            coloring: Coloring::Plain,
+            keypoints: kp0,
+        },
+        Panel {
+            label: format!("deformed source A′ (pose {pose})"),
+            mesh: deformed.clone(),
+            coloring: Coloring::Plain,
+            keypoints: Vec::new(),
+        },
+    ];
+    if !fits {
+        ps.push(Panel {
+            label: "target B".into(),
+            mesh: target.clone(),
+            coloring: Coloring::Plain,
+            keypoints: Vec::new(),
+        });
+        if let Some(t) = reference {
+            ps.push(Panel {
+                label: "ground truth B′".into(),
+                mesh: t.clone(),
+                coloring: Coloring::Plain,
+                keypoints: Vec::new(),
+            });
+        }
+    }
+    ps
 }
 
 /// Spreads label ids over [0, 1] so that neighbouring ids get distinct colours.
