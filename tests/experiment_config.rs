@@ -84,7 +84,7 @@ fn wrong_type_names_the_key_and_the_expected_type() {
         e.contains("defaults.mode") && e.contains("`exact`") && e.contains("`fast`"),
         "{e}"
     );
-    let e = error_of(&GOOD.replace("kind = \"bdt_random\"", "kind = \"sumner\""));
+    let e = error_of(&GOOD.replace("kind = \"bdt_random\"", "kind = \"der_ik\""));
     assert!(
         e.contains("methods[1].kind") && e.contains("bdt_extremity"),
         "{e}"

@@ -1,12 +1,13 @@
 //! `deformlab bench`: median timings of the numerical kernels, of bounded
-//! biharmonic weights, of key point selection and of FBT registration.
+//! biharmonic weights, of key point selection, of FBT registration and of
+//! the baselines (Sumner DT, cage DT).
 
 use std::process::ExitCode;
 
 use deformlab::{Error, Result};
 
 /// Groups beyond the kernel groups of [`deformlab::bench::GROUPS`].
-const METHOD_GROUPS: [&str; 3] = ["bbw", "keypoints", "fbt"];
+const METHOD_GROUPS: [&str; 4] = ["bbw", "keypoints", "fbt", "baselines"];
 
 pub fn run(groups: &[String], quick: bool, threads: usize, exact_full: bool) -> Result<ExitCode> {
     for g in groups {
@@ -54,6 +55,12 @@ pub fn run(groups: &[String], quick: bool, threads: usize, exact_full: bool) -> 
     if want("fbt") {
         println!("\n## FBT registration (Table 1, NICP on a partial cat)\n");
         print!("{}", deformlab::bench_fbt::run(quick)?);
+    }
+    if want("baselines") {
+        println!("\n## Baselines: Sumner & Popović deformation transfer (cat → lion)\n");
+        print!("{}", deformlab::baselines::bench::bench(quick)?);
+        println!("\n## Baselines on the synthetic Fig. 14 cases\n");
+        print!("{}", deformlab::experiment::baselines::bench_fig14(quick)?);
     }
     Ok(ExitCode::SUCCESS)
 }

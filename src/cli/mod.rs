@@ -67,7 +67,9 @@ pub enum Command {
         (nalgebra-sparse's Cholesky, for comparison) — sizes 7.2k, 50k, 200k vertices;\n\
         bbw (weights for 10 handles on FAUST tr_reg_001, all modes, and LBS of 12 handles);\n\
         keypoints (fast key point selection, n_c = 100, m = 1 and 3, exact-mode trials and\n\
-        extrapolation; --exact-full also runs the exact selections: hours).\n\
+        extrapolation; --exact-full also runs the exact selections: hours);\n\
+        baselines (Sumner DT on cat → lion: correspondence, factorisation, per-pose solve;\n\
+        Sumner, oracle and cage DT on the synthetic Fig. 14 cases).\n\
         bbw and keypoints read ../shared/data (or DEFORMLAB_SHARED_DATA) and fall back to\n\
         synthetic meshes.\n\n\
         Examples:\n  \

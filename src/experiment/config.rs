@@ -276,6 +276,15 @@ pub enum MethodKind {
     Clustering,
     /// FBT registration experiments ([`super::fbt`]).
     Fbt,
+    /// Sumner & Popović deformation transfer with the automatic BDT key
+    /// points as correspondence markers ([`super::baselines`]).
+    Sumner,
+    /// Sumner & Popović deformation transfer with the identity triangle
+    /// correspondence (shared connectivity only).
+    SumnerOracle,
+    /// Cage-based spatial deformation transfer with the automatic BDT key
+    /// points as markers ([`crate::baselines::cage`]).
+    Cage,
 }
 
 /// Random key point pool.
@@ -597,6 +606,13 @@ pub enum Method {
         spec: super::fbt::FbtSpec,
         seed: u64,
     },
+    /// Sumner DT with the automatic key points (selected with `pipeline`)
+    /// as markers.
+    Sumner { pipeline: Pipeline },
+    /// Sumner DT with the identity triangle correspondence.
+    SumnerOracle { pipeline: Pipeline },
+    /// Cage DT with the automatic key points as markers.
+    Cage { pipeline: Pipeline },
 }
 
 impl Method {
@@ -607,7 +623,10 @@ impl Method {
             | Method::BdtRandom { pipeline, .. }
             | Method::BdtExtremity { pipeline, .. }
             | Method::Clustering { pipeline, .. }
-            | Method::Fbt { pipeline, .. } => pipeline,
+            | Method::Fbt { pipeline, .. }
+            | Method::Sumner { pipeline }
+            | Method::SumnerOracle { pipeline }
+            | Method::Cage { pipeline } => pipeline,
         }
     }
 
@@ -619,6 +638,9 @@ impl Method {
             Method::BdtExtremity { .. } => "bdt_extremity",
             Method::Clustering { .. } => "clustering",
             Method::Fbt { .. } => "fbt",
+            Method::Sumner { .. } => "sumner",
+            Method::SumnerOracle { .. } => "sumner_oracle",
+            Method::Cage { .. } => "cage",
         }
     }
 
@@ -1005,6 +1027,21 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
                     seed,
                 }
             }
+            MethodKind::Sumner | MethodKind::SumnerOracle | MethodKind::Cage => {
+                not_for("count", m.count.is_some())?;
+                not_for("pool", m.pool.is_some())?;
+                not_for("strategy", m.strategy.is_some())?;
+                not_for("jitter", m.jitter.is_some())?;
+                not_for("handles", m.handles.is_some())?;
+                not_for("features", m.features.is_some())?;
+                not_for("examples", m.examples.is_some())?;
+                not_for("n_clusters", m.n_clusters.is_some())?;
+                match m.kind {
+                    MethodKind::Sumner => Method::Sumner { pipeline },
+                    MethodKind::SumnerOracle => Method::SumnerOracle { pipeline },
+                    _ => Method::Cage { pipeline },
+                }
+            }
             MethodKind::Bdt => {
                 not_for("count", m.count.is_some())?;
                 not_for("pool", m.pool.is_some())?;
@@ -1101,6 +1138,9 @@ fn kind_str(k: MethodKind) -> &'static str {
         MethodKind::BdtExtremity => "bdt_extremity",
         MethodKind::Clustering => "clustering",
         MethodKind::Fbt => "fbt",
+        MethodKind::Sumner => "sumner",
+        MethodKind::SumnerOracle => "sumner_oracle",
+        MethodKind::Cage => "cage",
     }
 }
 

@@ -114,17 +114,20 @@ pub fn run_method(
     out.set("n_vertices", cm.a.n_vertices().to_string());
     match &m.method {
         Method::Clustering { .. } => clustering(col, &cm, m, render, out)?,
+        Method::Sumner { .. } | Method::SumnerOracle { .. } | Method::Cage { .. } => {
+            super::baselines::run(&cm, case, m, metrics, render, out)?
+        }
         _ => bdt(&cm, case, m, metrics, render, out)?,
     }
     out.set("seconds_total", secs(t_total.elapsed().as_secs_f64()));
     Ok(())
 }
 
-fn owned(v: &[Arc<Mesh>]) -> Vec<Mesh> {
+pub(super) fn owned(v: &[Arc<Mesh>]) -> Vec<Mesh> {
     v.iter().map(|m| (**m).clone()).collect()
 }
 
-fn save_mesh(path: &Path, mesh: &Mesh) -> Result<()> {
+pub(super) fn save_mesh(path: &Path, mesh: &Mesh) -> Result<()> {
     if path.exists() {
         return Ok(());
     }
@@ -158,22 +161,7 @@ fn bdt(
     // Key points.
     let t = Instant::now();
     let keypoints: Vec<usize> = match &m.method {
-        Method::Bdt { .. } => {
-            let k = p.selection_poses.unwrap_or(a_def.len()).min(a_def.len());
-            out.set("n_selection_poses", k.to_string());
-            let sel = select_keypoints(a, &a_def[..k], kopts)?;
-            out.set("selection_error", num(sel.error));
-            out.set("selection_evaluations", sel.evaluations.to_string());
-            let trace: Vec<(f64, f64)> = sel
-                .trace
-                .iter()
-                .filter(|s| s.stage == 1)
-                .map(|s| (s.keypoints.len() as f64, s.error))
-                .collect();
-            let (x, y): (Vec<f64>, Vec<f64>) = trace.into_iter().unzip();
-            out.curves.push(Curve::new("selection_trace", &x, &y));
-            sel.keypoints
-        }
+        Method::Bdt { .. } => auto_keypoints(a, &a_def, p, out)?,
         Method::BdtRandom {
             count, seed, pool, ..
         } => random_keypoints(a, *count, *seed, *pool, kopts.n_candidates, kopts.fps)?,
@@ -184,18 +172,10 @@ fn bdt(
             seed,
             ..
         } => extremity_keypoints(a, *count, *strategy, *jitter, *seed)?,
-        Method::Clustering { .. } | Method::Fbt { .. } => unreachable!("handled by the caller"),
+        _ => unreachable!("handled by the caller"),
     };
     out.set("seconds_selection", secs(t.elapsed().as_secs_f64()));
-    out.set("n_keypoints", keypoints.len().to_string());
-    out.set(
-        "keypoints",
-        keypoints
-            .iter()
-            .map(|k| k.to_string())
-            .collect::<Vec<_>>()
-            .join(";"),
-    );
+    record_keypoints(&keypoints, out);
 
     // Fit on the source (all deformed poses).
     let t = Instant::now();
@@ -223,6 +203,67 @@ fn bdt(
     out.set("seconds_refine", secs(tr.seconds_refine));
 
     // Metrics.
+    measure(b, &tr.meshes, &cm.truth, metrics, out)?;
+
+    if let Some(r) = render {
+        let dir = r.dir.join(&m.name);
+        for (j, pose) in case.poses.iter().enumerate().take(r.poses) {
+            save_mesh(&dir.join(format!("result_{pose}.ply")), &tr.meshes[j])?;
+            let fitted = a.with_vertices(fit.positions[j].clone())?;
+            save_mesh(&dir.join(format!("fit_{pose}.ply")), &fitted)?;
+        }
+    }
+    Ok(())
+}
+
+/// The automatic key points of BDT (Algorithm 1 with the pipeline's
+/// options, from its first `selection_poses` poses); records the selection
+/// columns and its trace curve.
+pub(super) fn auto_keypoints(
+    a: &Mesh,
+    a_def: &[Mesh],
+    p: &super::config::Pipeline,
+    out: &mut CaseResult,
+) -> Result<Vec<usize>> {
+    let kopts = &p.keypoints;
+    let k = p.selection_poses.unwrap_or(a_def.len()).min(a_def.len());
+    out.set("n_selection_poses", k.to_string());
+    let sel = select_keypoints(a, &a_def[..k], kopts)?;
+    out.set("selection_error", num(sel.error));
+    out.set("selection_evaluations", sel.evaluations.to_string());
+    let trace: Vec<(f64, f64)> = sel
+        .trace
+        .iter()
+        .filter(|s| s.stage == 1)
+        .map(|s| (s.keypoints.len() as f64, s.error))
+        .collect();
+    let (x, y): (Vec<f64>, Vec<f64>) = trace.into_iter().unzip();
+    out.curves.push(Curve::new("selection_trace", &x, &y));
+    Ok(sel.keypoints)
+}
+
+/// Records `n_keypoints` and `keypoints`.
+pub(super) fn record_keypoints(keypoints: &[usize], out: &mut CaseResult) {
+    out.set("n_keypoints", keypoints.len().to_string());
+    out.set(
+        "keypoints",
+        keypoints
+            .iter()
+            .map(|k| k.to_string())
+            .collect::<Vec<_>>()
+            .join(";"),
+    );
+}
+
+/// Metrics of the transferred meshes `results` (one per pose) of the target
+/// reference `b` against the ground truths (see the module documentation).
+pub(super) fn measure(
+    b: &Mesh,
+    results: &[Mesh],
+    truth: &[Option<Arc<Mesh>>],
+    metrics: &MetricsSpec,
+    out: &mut CaseResult,
+) -> Result<()> {
     let t = Instant::now();
     let sb = ErrorScale::of_reference(b)?;
     let procrustes = metrics.procrustes();
@@ -231,7 +272,7 @@ fn bdt(
     let (mut e_arap, mut e_arap_truth, mut d_area, mut d_edge) = (0.0, 0.0, 0.0, 0.0);
     let mut n_truth = 0;
     let mut log_area: Vec<f64> = Vec::new();
-    for (res, truth) in tr.meshes.iter().zip(&cm.truth) {
+    for (res, truth) in results.iter().zip(truth) {
         e_arap += arap_energy(b, res.vertices())?.1;
         log_area.extend(face_log_area_ratios(b, res.vertices())?);
         let d = distortion(b, res.vertices())?;
@@ -248,7 +289,7 @@ fn bdt(
             n_truth += 1;
         }
     }
-    let np = tr.meshes.len() as f64;
+    let np = results.len().max(1) as f64;
     out.set("arap_energy", num(e_arap / np));
     out.set("distortion_area", num(d_area / np));
     out.set("distortion_edge", num(d_edge / np));
@@ -287,15 +328,6 @@ fn bdt(
         ));
     }
     out.set("seconds_metrics", secs(t.elapsed().as_secs_f64()));
-
-    if let Some(r) = render {
-        let dir = r.dir.join(&m.name);
-        for (j, pose) in case.poses.iter().enumerate().take(r.poses) {
-            save_mesh(&dir.join(format!("result_{pose}.ply")), &tr.meshes[j])?;
-            let fitted = a.with_vertices(fit.positions[j].clone())?;
-            save_mesh(&dir.join(format!("fit_{pose}.ply")), &fitted)?;
-        }
-    }
     Ok(())
 }
 

@@ -8,6 +8,7 @@
 //!
 //! Results folder layout: see [`store`].
 
+pub mod baselines;
 pub mod cases;
 pub mod config;
 pub mod dataset;
