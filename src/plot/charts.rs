@@ -1051,18 +1051,41 @@ fn draw_bar_chart<DB: DrawingBackend>(
 /// Greedy word wrap of `text` into lines at most `width` pixels wide at
 /// `size` (a single word wider than that stays on its own line).
 fn wrap(text: &str, size: f64, width: f64) -> Vec<String> {
+    // Pieces and the separator before each: words split at spaces, and
+    // words too wide for a line also after their hyphens and underscores
+    // ("auto-handle-relative" → "auto-", "handle-", "relative").
+    let mut pieces: Vec<(&str, &str)> = Vec::new();
+    for word in text.split_whitespace() {
+        let mut sep = " ";
+        if font::text_size(word, size, false).0 as f64 <= width {
+            pieces.push((sep, word));
+            continue;
+        }
+        let mut start = 0;
+        for (i, ch) in word.char_indices() {
+            if ch == '-' || ch == '_' {
+                let end = i + ch.len_utf8();
+                pieces.push((sep, &word[start..end]));
+                sep = "";
+                start = end;
+            }
+        }
+        if start < word.len() {
+            pieces.push((sep, &word[start..]));
+        }
+    }
     let mut lines: Vec<String> = Vec::new();
     let mut cur = String::new();
-    for word in text.split_whitespace() {
+    for (sep, piece) in pieces {
         let trial = if cur.is_empty() {
-            word.to_string()
+            piece.to_string()
         } else {
-            format!("{cur} {word}")
+            format!("{cur}{sep}{piece}")
         };
         if cur.is_empty() || font::text_size(&trial, size, false).0 as f64 <= width {
             cur = trial;
         } else {
-            lines.push(std::mem::replace(&mut cur, word.to_string()));
+            lines.push(std::mem::replace(&mut cur, piece.to_string()));
         }
     }
     if !cur.is_empty() || lines.is_empty() {
@@ -1313,6 +1336,19 @@ mod tests {
     use super::*;
 
     const M: Metrics = Metrics { s: 1.0 };
+
+    #[test]
+    fn long_names_wrap_at_spaces_then_hyphens() {
+        let w = font::text_size("handle-", 22.0, false).0 as f64 + 4.0;
+        let lines = wrap("auto-handle-relative", 22.0, w);
+        assert_eq!(lines.join(""), "auto-handle-relative");
+        assert!(lines.len() >= 2, "{lines:?}");
+        for l in &lines {
+            assert!(font::text_size(l, 22.0, false).0 as f64 <= w, "{l} in {w}");
+        }
+        assert_eq!(wrap("mean error", 22.0, 1000.0), vec!["mean error"]);
+        assert_eq!(wrap("a b", 22.0, 1.0), vec!["a", "b"]);
+    }
     const PLOT: Rect = (100.0, 100.0, 1100.0, 700.0);
     const SIZE: (f64, f64) = (200.0, 100.0);
 
