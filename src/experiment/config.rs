@@ -559,6 +559,10 @@ pub struct PlotSpec {
     /// Line plots: one series per value of this cases.csv column.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub by: Option<String>,
+    /// Bars and line plots: the y axis label, with units (default: from
+    /// the metrics).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub y_label: Option<String>,
 }
 
 /// The resolved pipeline of a BDT method.

@@ -210,6 +210,7 @@ fn default_plots(c: &Config) -> Vec<PlotSpec> {
         show: None,
         log_y: None,
         by: None,
+        y_label: None,
     };
     let mut v = Vec::new();
     if c.methods.iter().any(|m| m.kind == MethodKind::Fbt) {
@@ -396,10 +397,18 @@ fn bars(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         series.push((column_label(m), st.iter().map(|s| s.0).collect()));
         errors.push(st.iter().map(|s| s.1).collect());
     }
-    let y_label = if spec.metrics.len() == 1 {
+    let y_label = if let Some(l) = &spec.y_label {
+        l.clone()
+    } else if spec.metrics.len() == 1 {
         column_label(&spec.metrics[0])
     } else if spec.metrics.iter().all(|m| m.ends_with("_unit")) {
         "error (unit-sphere units)".into()
+    } else if spec
+        .metrics
+        .iter()
+        .all(|m| column_label(m).contains("(√area units)"))
+    {
+        "error (√area units)".into()
     } else if spec.metrics.iter().all(|m| m == "ari" || m == "purity") {
         "score (1 = true segmentation)".into()
     } else {
@@ -548,7 +557,9 @@ fn line(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
     if series.is_empty() {
         return Err(Error::invalid("no numbers to plot"));
     }
-    let y_label = if spec.metrics.len() == 1 {
+    let y_label = if let Some(l) = &spec.y_label {
+        l.clone()
+    } else if spec.metrics.len() == 1 {
         column_label(&spec.metrics[0])
     } else if spec
         .metrics
