@@ -997,6 +997,14 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
                 Ok(())
             }
         };
+        // Simulated users (random, extremity): how many key points they pick.
+        let keypoint_count = || -> Result<usize> {
+            match m.count {
+                None => Err(bad(path, key("count"), "expected the number of key points")),
+                Some(0) => Err(bad(path, key("count"), "expected at least 1")),
+                Some(c) => Ok(c),
+            }
+        };
         let pipe = merge_pipeline!(m, config.defaults;
             n_candidates, seed, epsilon, error_norm, max_keypoints, mode, fps, groups,
             gamma_logr, gamma_s, n_groups, use_ediff, lambda, max_swap_passes, kmeans_sample,
@@ -1065,12 +1073,7 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
                 not_for("examples", m.examples.is_some())?;
                 not_for("n_clusters", m.n_clusters.is_some())?;
                 not_for("selection_poses", pipe.selection_poses.is_some())?;
-                let count = m
-                    .count
-                    .ok_or_else(|| bad(path, key("count"), "expected the number of key points"))?;
-                if count == 0 {
-                    return Err(bad(path, key("count"), "expected at least 1"));
-                }
+                let count = keypoint_count()?;
                 Method::BdtRandom {
                     pipeline,
                     count,
@@ -1085,12 +1088,7 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
                 not_for("examples", m.examples.is_some())?;
                 not_for("n_clusters", m.n_clusters.is_some())?;
                 not_for("selection_poses", pipe.selection_poses.is_some())?;
-                let count = m
-                    .count
-                    .ok_or_else(|| bad(path, key("count"), "expected the number of key points"))?;
-                if count == 0 {
-                    return Err(bad(path, key("count"), "expected at least 1"));
-                }
+                let count = keypoint_count()?;
                 let jitter = m.jitter.unwrap_or(0.0);
                 if !(jitter.is_finite() && jitter >= 0.0) {
                     return Err(bad(path, key("jitter"), "expected a finite number ≥ 0"));
