@@ -214,3 +214,38 @@ fn every_shipped_config_loads() {
     // 16 BDT configs + 14 FBT configs (fbt-*.toml and real/fbt-*-tosca.toml).
     assert!(n >= 30, "only {n} configs found");
 }
+
+/// `[cases] repeat = k` makes k copies of every case with distinct ids (so
+/// id-seeded methods draw anew), before `random` draws from them; 0 is an
+/// error naming the key.
+#[test]
+fn repeat_copies_every_case_before_random() {
+    use deformlab::experiment::{generate_cases, Collection};
+    let with = |extra: &str| {
+        let text = format!(
+            "name = \"rep\"\n[dataset.synthetic]\nsubjects = 2\nposes = 3\nresolution = 1\n\
+             [cases]\nsources = [0]\nper_pose = true\n{extra}\n\
+             [[methods]]\nname = \"auto\"\nkind = \"bdt\"\n"
+        );
+        let cfg = parse_config(&text, Path::new("rep.toml")).unwrap();
+        let col = Collection::open(&cfg).unwrap();
+        generate_cases(&cfg, &col)
+    };
+    let base = with("").unwrap();
+    let rep = with("repeat = 3").unwrap();
+    assert_eq!(rep.len(), 3 * base.len());
+    for (i, c) in rep.iter().enumerate() {
+        let b = &base[i / 3];
+        assert_eq!(c.id, format!("{}-x{}", b.id, i % 3));
+        assert_eq!(
+            (&c.source, &c.target, &c.poses),
+            (&b.source, &b.target, &b.poses)
+        );
+        assert_eq!(c.index, i);
+    }
+    let drawn = with("repeat = 3\nrandom = 4").unwrap();
+    assert_eq!(drawn.len(), 4);
+    assert!(drawn.iter().all(|c| rep.iter().any(|r| r.id == c.id)));
+    let e = with("repeat = 0").unwrap_err().to_string();
+    assert!(e.contains("rep.toml") && e.contains("cases.repeat"), "{e}");
+}

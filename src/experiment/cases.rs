@@ -13,7 +13,10 @@
 //! leaves the source another pose; the deformed poses are the configured
 //! ones (or every other pose of the source), restricted to those whose
 //! ground truth exists (`require_truth`, default) and cut to `max_poses`.
-//! `per_pose` makes one case per deformed pose. `random = N` keeps N of the
+//! `per_pose` makes one case per deformed pose. `repeat = k` makes k copies
+//! of every case (ids suffixed `-x0` … `-x{k-1}`; methods seeded by the case
+//! id — the FBT tasks — draw their partial shapes, feature points and
+//! examples anew per copy). `random = N` keeps N of the
 //! generated cases drawn without replacement with the config seed
 //! (ChaCha8), in generation order; `max_cases` cuts the list. Cases are
 //! numbered in that final order; shard `i/N` runs the cases with
@@ -192,6 +195,27 @@ pub fn generate_cases(cfg: &LoadedConfig, col: &Collection) -> Result<Vec<Case>>
                 });
             }
         }
+    }
+    match spec.repeat {
+        Some(0) => {
+            return Err(Error::parse(
+                &cfg.path,
+                "key `cases.repeat`",
+                "must be at least 1 (copies of every case)",
+            ))
+        }
+        Some(k) if k > 1 => {
+            cases = cases
+                .iter()
+                .flat_map(|c| {
+                    (0..k).map(move |j| Case {
+                        id: format!("{}-x{j}", c.id),
+                        ..c.clone()
+                    })
+                })
+                .collect();
+        }
+        _ => {}
     }
     if let Some(n) = spec.random {
         if n < cases.len() {

@@ -19,6 +19,7 @@
 //! max_poses = 3                 # keep the first m of them
 //! per_pose = false              # one case per pose (m = 1) instead of all at once
 //! require_truth = true          # drop poses whose ground truth is missing
+//! repeat = 5                    # copies of every case (fresh FBT draws per copy)
 //! random = 4                    # N random draws (seeded) instead of the product
 //! max_cases = 10
 //!
@@ -201,6 +202,12 @@ pub struct CaseSpec {
     pub per_pose: Option<bool>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub require_truth: Option<bool>,
+    /// Copies of every generated case (ids suffixed `-x0`, `-x1`, …) before
+    /// `random` draws from them: methods that seed their random choices with
+    /// the case id (FBT's partial shapes, feature points and example draws)
+    /// get a fresh draw per copy. Default 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub repeat: Option<usize>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub random: Option<usize>,
     #[serde(default, skip_serializing_if = "Option::is_none")]

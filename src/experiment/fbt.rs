@@ -592,6 +592,18 @@ fn scale(
     let alpha1 = sys.solve(&y1, &Schedule::default())?.alpha;
     out.set("alpha_unscaled", num(alpha1));
     out.set("alpha_ratio_error", num((reg.alpha / alpha1 - s).abs() / s));
+    // The α the energy assigns to the true scaled target (optimal cluster
+    // rotations and scale for the truth, same example ℓ*): the estimator's
+    // own value, against which the solver's α is judged.
+    let clusters = setup.pipeline.main().clusters();
+    let (oracle, _) = setup
+        .graph
+        .best_scale(reg.example, target.vertices(), clusters)?;
+    out.set("alpha_oracle", num(oracle));
+    out.set(
+        "alpha_oracle_error",
+        num((reg.alpha - oracle).abs() / oracle),
+    );
     let area = setup.graph.area() * s * s;
     let d = metrics::relative_distortion(&reg.positions, target.vertices(), area)?;
     set_distortion(out, &d, "");

@@ -82,6 +82,8 @@ pub const CASE_COLUMNS: &[&str] = &[
     "alpha_true",
     "alpha_error",
     "alpha_unscaled",
+    "alpha_oracle",
+    "alpha_oracle_error",
     "alpha_ratio_error",
     "rel_distortion_mean",
     "rel_distortion_max",

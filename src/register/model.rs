@@ -180,6 +180,53 @@ impl ArapGraph {
         Ok(0.5 * e)
     }
 
+    /// The scale α and per-cluster rotations that minimise `E_sc(V_ℓ, p)`
+    /// (Eq. 7) for given positions `p`: `R_k` = polar factor of the
+    /// cluster's edge covariance `Σ c_ij (p_i − p_j)(v_i − v_j)ᵀ`, then
+    /// `α = Σ_k tr(R_kᵀ S_k) / Σ c_ij ‖v_i − v_j‖²` (the scale step of
+    /// Eq. 16 with the rotations of the local step). Applied to a ground
+    /// truth it gives the α the energy itself assigns to that shape — below
+    /// 1 for a non-rigid pose even without any scaling, because an edge of a
+    /// bent region is not a rotated copy of its rest edge under its
+    /// cluster's single rotation (`tr(Rᵀ S) < ‖S‖` there).
+    pub fn best_scale(
+        &self,
+        l: usize,
+        p: &[Point],
+        clusters: &[usize],
+    ) -> Result<(f64, Vec<Mat3>)> {
+        let n = self.n_vertices();
+        if l >= self.n_examples() || p.len() != n || clusters.len() != n {
+            return Err(Error::invalid(format!(
+                "best scale of example {l} with {} points and {} labels (n = {n}, q = {})",
+                p.len(),
+                clusters.len(),
+                self.n_examples()
+            )));
+        }
+        let k = clusters.iter().max().map_or(0, |m| m + 1);
+        let v = &self.examples[l];
+        let mut cov = vec![Mat3::zeros(); k];
+        for i in 0..n {
+            for r in self.ring_start[i]..self.ring_start[i + 1] {
+                let j = self.ring[r];
+                cov[clusters[i]] += self.ring_w[r] * (p[i] - p[j]) * (v[i] - v[j]).transpose();
+            }
+        }
+        let mut rots = Vec::with_capacity(k);
+        let mut tr = 0.0;
+        for s in &cov {
+            let r = if s.iter().all(|x| *x == 0.0) {
+                Mat3::identity()
+            } else {
+                crate::ops::polar_decomposition(s)?.rotation
+            };
+            tr += (r.transpose() * s).trace();
+            rots.push(r);
+        }
+        Ok(((tr / self.rest_terms[l]).max(0.0), rots))
+    }
+
     /// `L̃ = Dᵀ L D` (b × b) for a dictionary `d` (n × b).
     fn laplacian_form(&self, d: &DMatrix<f64>) -> DMatrix<f64> {
         let n = self.n_vertices();

@@ -4,9 +4,9 @@
 # shards of every experiment (`deformlab merge`) into RESULTS/<name>/.
 #
 # Usage (from the repository root, on the cluster's login node):
-#   scripts/slurm_array.sh N CONFIG... [-- EXTRA SBATCH OPTIONS]
+#   scripts/slurm/array.sh N CONFIG... [-- EXTRA SBATCH OPTIONS]
 # e.g.
-#   scripts/slurm_array.sh 8 experiments/*.toml -- --partition=short --time=02:00:00
+#   scripts/slurm/array.sh 8 experiments/*.toml -- --partition=short --time=02:00:00
 #
 # Environment:
 #   DEFORMLAB   the binary (default: target/release/deformlab, built if missing)
@@ -17,7 +17,8 @@
 #   DRY_RUN=1   print the sbatch commands instead of submitting them
 #
 # Inside the array, task $SLURM_ARRAY_TASK_ID runs
-#   deformlab run CONFIG... --shard $SLURM_ARRAY_TASK_ID/N --out $SHARDS/$SLURM_ARRAY_TASK_ID
+#   deformlab run CONFIG... --shard $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT \
+#       --out $SHARDS/$SLURM_ARRAY_TASK_ID
 # (resumable: a requeued or re-submitted task continues where it stopped);
 # the merge job runs after all tasks succeeded (afterok) and calls, per config,
 #   deformlab merge $SHARDS/0/<name> ... $SHARDS/N-1/<name> --out $RESULTS/<name>
@@ -28,8 +29,13 @@ if [[ "${1:-}" == "--task" ]]; then
     shift
     n="$1"; shift
     i="${SLURM_ARRAY_TASK_ID:?not running inside a Slurm array task}"
+    count="${SLURM_ARRAY_TASK_COUNT:-$n}"
+    if [[ "$count" != "$n" ]]; then
+        echo "error: array has $count tasks but $n shards were requested" >&2
+        exit 2
+    fi
     threads="${THREADS:-${SLURM_CPUS_PER_TASK:-2}}"
-    exec "$DEFORMLAB" run "$@" --shard "$i/$n" --out "$SHARDS/$i" --threads "$threads" --no-plots
+    exec "$DEFORMLAB" run "$@" --shard "$i/$count" --out "$SHARDS/$i" --threads "$threads" --no-plots
 fi
 
 if [[ "${1:-}" == "--merge" ]]; then
