@@ -35,7 +35,6 @@ if ! command -v slurmctld >/dev/null || ! command -v munged >/dev/null; then
     apt-get update -qq || true
     apt-get install -y -qq --no-install-recommends slurm-wlm munge >/dev/null
 fi
-say "$(sbatch --version)"
 
 # 2. One-node cluster on localhost.
 cpus="$(nproc)"
@@ -95,7 +94,7 @@ for _ in $(seq 60); do
     scontrol update nodename=localhost state=resume >/dev/null 2>&1 || true
     sleep 1
 done
-say "node state: $(sinfo -h -n localhost -o %T)"
+say "$(sbatch --version); node state: $(sinfo -h -n localhost -o %T)"
 [[ "$(sinfo -h -n localhost -o %T)" == idle* ]] || { echo "node not idle" >&2; sinfo >&2; exit 1; }
 
 # 3. The job array and its merge job.
