@@ -93,6 +93,11 @@ pub const CASE_COLUMNS: &[&str] = &[
     "perm_count",
     "interp_endpoint_error",
     "arap_energy_linear",
+    "target_correspondence",
+    "target_noise",
+    "target_keypoints",
+    "target_keypoint_error_area",
+    "registration_residual_area",
     "seconds_selection",
     "seconds_fit",
     "seconds_weights",
@@ -106,6 +111,7 @@ pub const CASE_COLUMNS: &[&str] = &[
     "seconds_iteration",
     "seconds_solve",
     "seconds_nicp",
+    "seconds_correspondence",
     "seconds_total",
 ];
 
