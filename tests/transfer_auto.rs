@@ -205,3 +205,40 @@ fn cli_auto_correspondence_end_to_end() {
         .unwrap();
     assert!(!again.status.success());
 }
+
+#[test]
+fn config_keys_are_validated_and_named() {
+    use deformlab::experiment::config::{parse_config, TargetCorrespondenceSpec};
+    let p = std::path::Path::new("auto.toml");
+    let ok = parse_config(
+        "name = \"a\"\n[[methods]]\nname = \"m\"\nkind = \"sumner\"\n\
+         target_correspondence = \"auto\"\ntarget_noise = 0.02\ntarget_noise_seed = 3\n",
+        p,
+    )
+    .unwrap();
+    let t = ok.methods[0].method.pipeline().target;
+    assert_eq!(t.correspondence, TargetCorrespondenceSpec::Auto);
+    assert_eq!((t.noise, t.noise_seed), (0.02, 3));
+    let e = parse_config(
+        "name = \"a\"\n[[methods]]\nname = \"m\"\nkind = \"clustering\"\n\
+         target_correspondence = \"auto\"\n",
+        p,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("methods[0].target_correspondence"), "{e}");
+    let e = parse_config(
+        "name = \"a\"\n[[methods]]\nname = \"m\"\nkind = \"bdt\"\ntarget_noise = 2.0\n",
+        p,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("target_noise"), "{e}");
+    let e = parse_config(
+        "name = \"a\"\n[dataset.synthetic]\nremesh = 5.0\n[[methods]]\nname = \"m\"\nkind = \"bdt\"\n",
+        p,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("dataset.synthetic.remesh"), "{e}");
+}

@@ -279,12 +279,15 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
         ..TransferOptions::default()
     };
     // A rotated onto B by the registration: transforms in B's frame.
-    let transforms = match &auto {
-        Some(r) => r.target_frame_transforms(&transforms),
-        None => transforms,
+    let (source_t, transforms) = match &auto {
+        Some(r) => (
+            r.source_in_target_frame(&source)?,
+            r.target_frame_transforms(&transforms),
+        ),
+        None => (source.clone(), transforms),
     };
     let res = transfer_detailed(
-        &source,
+        &source_t,
         &source_kp,
         &transforms,
         &target,

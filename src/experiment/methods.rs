@@ -30,7 +30,10 @@
 //!   used and the true target key points, √area(B) units; only when B
 //!   shares A's faces, where the truth is the source index),
 //!   `registration_residual_area` (symmetric mean closest-point distance of
-//!   the registered A to B) and `seconds_correspondence`.
+//!   the registered A to B), `target_frame` (`source`: A and B in one frame,
+//!   transforms applied as fitted; `registration`: the frames differ and the
+//!   transforms are re-expressed in B's frame by the coarse alignment,
+//!   [`crate::transfer::auto`]) and `seconds_correspondence`.
 //! * timings: `seconds_selection`, `seconds_fit`, `seconds_weights` (target
 //!   weights), `seconds_weights_per_handle` (BDT Table 1 "SWT/h"),
 //!   `seconds_lbs` and `seconds_lbs_per_pose` (Table 1 "LBS time"),
@@ -205,11 +208,25 @@ fn bdt(
         out,
     )?;
     // A rotated onto B by the registration: transforms in B's frame.
-    let transforms = match &auto {
-        Some(r) => r.target_frame_transforms(&fit.transforms),
-        None => fit.transforms.clone(),
+    let (a_t, transforms) = match &auto {
+        Some(r) => (
+            r.source_in_target_frame(a)?,
+            r.target_frame_transforms(&fit.transforms),
+        ),
+        None => (a.clone(), fit.transforms.clone()),
     };
-    let tr = transfer_detailed(a, &keypoints, &transforms, b, &target_kp, &p.transfer)?;
+    if let Some(r) = &auto {
+        out.set(
+            "target_frame",
+            if r.frames_differ() {
+                "registration"
+            } else {
+                "source"
+            }
+            .to_string(),
+        );
+    }
+    let tr = transfer_detailed(&a_t, &keypoints, &transforms, b, &target_kp, &p.transfer)?;
     out.set("seconds_weights", secs(tr.seconds_weights));
     out.set(
         "seconds_weights_per_handle",

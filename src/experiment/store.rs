@@ -98,6 +98,7 @@ pub const CASE_COLUMNS: &[&str] = &[
     "target_keypoints",
     "target_keypoint_error_area",
     "registration_residual_area",
+    "target_frame",
     "seconds_selection",
     "seconds_fit",
     "seconds_weights",

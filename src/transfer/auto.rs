@@ -44,10 +44,14 @@
 //! **Frames.** BDT's `Direct` frame applies the transforms fitted on `A`
 //! to `B` as they are, which is right when both live in one frame (FAUST
 //! registrations, the synthetic set). When the coarse alignment had to
-//! rotate `A` by more than [`FRAME_ROTATION_DEG`] they do not, and
+//! rotate `A` by more than [`FRAME_ROTATION_DEG`], scale it by more than
+//! 1.5× (or less than 1/1.5) or move its centroid by more than 0.5 √area(B)
+//! ([`AutoCorrespondence::frames_differ`]) they do not, and
 //! [`AutoCorrespondence::target_frame_transforms`] re-expresses each
 //! transform in `B`'s frame, `T′ = M T M⁻¹` with `M` the coarse similarity
-//! ([`conjugate`]).
+//! ([`conjugate`]); the source reference goes with them
+//! ([`AutoCorrespondence::source_in_target_frame`], for the key point
+//! positions of the handle-relative frame).
 //!
 //! [`perturb_keypoints`] is the noise model of the robustness experiment: a
 //! seeded random vertex within a geodesic (edge-path) radius.
@@ -203,6 +207,10 @@ pub struct CoarseAlignment {
     pub candidate_scores: Vec<f64>,
     /// Index of the chosen candidate.
     pub chosen: usize,
+    /// Area-weighted centroid of `A` (A's frame).
+    pub source_centroid: Point,
+    /// √area(B).
+    pub target_sqrt_area: f64,
 }
 
 /// Result of [`auto_correspondence`].
@@ -242,10 +250,27 @@ pub fn conjugate(t: &Affine, m: &SimilarityMotion) -> Affine {
 }
 
 impl AutoCorrespondence {
-    /// Whether `A` had to be rotated by more than [`FRAME_ROTATION_DEG`]
-    /// onto `B` (the two are then not in one frame).
+    /// Whether `A` and `B` are in different frames: the coarse alignment
+    /// rotated `A` by more than [`FRAME_ROTATION_DEG`], scaled it by more
+    /// than 1.5× either way or moved its centroid by more than 0.5 √area(B).
     pub fn frames_differ(&self) -> bool {
-        self.coarse.motion.angle_deg() > FRAME_ROTATION_DEG
+        let c = &self.coarse;
+        let shift = (c.motion.apply(&c.source_centroid) - c.source_centroid).norm();
+        c.motion.angle_deg() > FRAME_ROTATION_DEG
+            || c.motion.scale.ln().abs() > 1.5f64.ln()
+            || shift > 0.5 * c.target_sqrt_area
+    }
+
+    /// The source reference `a` in `B`'s frame (the coarse similarity
+    /// applied) when the frames differ, else `a` itself: the source mesh to
+    /// pass to [`crate::transfer::transfer`] with
+    /// [`Self::target_frame_transforms`].
+    pub fn source_in_target_frame(&self, a: &Mesh) -> Result<Mesh> {
+        if self.frames_differ() {
+            a.map_vertices(|p| self.coarse.motion.apply(p))
+        } else {
+            Ok(a.clone())
+        }
     }
 
     /// The per-pose, per-key-point transforms fitted on `A`, re-expressed in
@@ -449,6 +474,8 @@ pub fn coarse_align(a: &Mesh, b: &Mesh, opts: &AutoOptions) -> Result<CoarseAlig
         residual,
         candidate_scores: scores,
         chosen,
+        source_centroid: ca,
+        target_sqrt_area: area_b.sqrt(),
     })
 }
 
