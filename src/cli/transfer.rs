@@ -1,7 +1,7 @@
 //! `deformlab transfer`: key point selection on the source (or reuse of a
 //! key point file), then deformation transfer to a target (BDT Sec. 3.6).
 //!
-//! **Matching key points to the target.** Three ways:
+//! **Matching key points to the target.** Four ways:
 //!
 //! * `--same-connectivity`: target vertex = source vertex (same index);
 //! * `--target-keypoints i,j,k`: an explicit list, in key point order (use
@@ -12,7 +12,12 @@
 //!   from the file's source vertices only
 //!   ([`deformlab::transfer::KeypointOptions::candidate_pool`]: FPS inside
 //!   the pool, `n_c` capped at its size). Key points given with
-//!   `--keypoints` must be in the file too (else an error).
+//!   `--keypoints` must be in the file too (else an error);
+//! * `--auto-correspondence`: found by registering A onto B (coarse
+//!   principal-axes alignment, nonrigid ICP with blended transformations,
+//!   closest point on B snapped to a vertex; [`deformlab::transfer::auto`]).
+//!   A and B may have any connectivity. Also writes DIR/registered_source.ply
+//!   (A registered onto B) and the registration diagnostics in log.json.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -26,7 +31,10 @@ use deformlab::data::correspondence::{check_pairs, read_pairs, PairFormat};
 use deformlab::mesh::io::{read_mesh, write_ply};
 use deformlab::skin::Affine;
 use deformlab::transfer::keypoints::{fit_keypoints, select_keypoints, SelectionMode};
-use deformlab::transfer::{transfer_detailed, TargetWeights, TransferFrame, TransferOptions};
+use deformlab::transfer::{
+    auto_correspondence, transfer_detailed, AutoCorrespondence, AutoOptions, TargetWeights,
+    TransferFrame, TransferOptions,
+};
 use deformlab::{Error, Mesh, Result};
 
 use super::keypoints::{
@@ -51,14 +59,16 @@ pub enum FormatArg {
 
 /// `deformlab transfer` arguments.
 #[derive(Args, Debug)]
-#[command(group(ArgGroup::new("target_map").args(["correspondence", "same_connectivity", "target_keypoints"]).multiple(false)))]
+#[command(group(ArgGroup::new("target_map").args(["correspondence", "same_connectivity", "target_keypoints", "auto_correspondence"]).multiple(false)))]
 #[command(after_help = "Examples:\n  \
     deformlab transfer --source faust/tr_reg_000.ply --deformed faust/tr_reg_003.ply faust/tr_reg_007.ply \\\n      \
     --target faust/tr_reg_010.ply --same-connectivity --out out/t1\n  \
     deformlab transfer --source A.ply --deformed A1.ply --target B.ply --correspondence markers.yml \\\n      \
     --format markers-yml --frame handle-relative --refine --out out/t2\n  \
     deformlab transfer --source A.ply --deformed A1.ply --target B.ply --keypoints out/t1/keypoints.csv \\\n      \
-    --target-keypoints 12,40,77 --out out/t3\n\n\
+    --target-keypoints 12,40,77 --out out/t3\n  \
+    deformlab transfer --source cat.obj --deformed cat-01.obj --target lion.obj --auto-correspondence \\\n      \
+    --frame handle-relative --out out/t4\n\n\
     Writes DIR/<deformed>_to_<target>.ply (one per deformed source), DIR/keypoints.csv\n\
     (source vertex, target vertex, x y z on A, x y z on B) and DIR/log.json (settings, selection\n\
     error trace, timings). Existing files are not overwritten unless --force is given.\n\
@@ -83,6 +93,10 @@ pub struct TransferArgs {
     /// A and B share connectivity: target key point = source key point.
     #[arg(long)]
     pub same_connectivity: bool,
+    /// Find the target key points by registering the source onto the target
+    /// (any connectivity); writes registered_source.ply too.
+    #[arg(long)]
+    pub auto_correspondence: bool,
     /// Target vertices of the key points, comma separated, in key point order.
     #[arg(long, value_delimiter = ',')]
     pub target_keypoints: Option<Vec<usize>>,
@@ -113,6 +127,7 @@ enum TargetMap {
         sources: Vec<usize>,
     },
     FromFile,
+    Auto,
 }
 
 fn stem(p: &Path) -> String {
@@ -138,8 +153,12 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
     }
     let kp_out = a.out.join("keypoints.csv");
     let log_out = a.out.join("log.json");
+    let reg_out = a.out.join("registered_source.ply");
     let mut all_out = mesh_out.clone();
     all_out.extend([kp_out.clone(), log_out.clone()]);
+    if a.auto_correspondence {
+        all_out.push(reg_out.clone());
+    }
     refuse_overwrite(&all_out, a.force)?;
 
     let (source, deformed) = a.select.load()?;
@@ -192,7 +211,27 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
         }
     };
 
+    let mut auto: Option<AutoCorrespondence> = None;
     let target_kp: Vec<usize> = match &map {
+        TargetMap::Auto => {
+            let r = auto_correspondence(
+                &source,
+                &source_kp,
+                &target,
+                &AutoOptions {
+                    seed: a.select.seed,
+                    ..AutoOptions::default()
+                },
+            )?;
+            println!(
+                "automatic correspondence: coarse residual {:.4}, registration residual {:.4} \
+                 (√area(B) units), α {:.3}, {:.2} s; target key points {:?}",
+                r.coarse.residual, r.residual, r.alpha, r.seconds, r.target_keypoints
+            );
+            let kp = r.target_keypoints.clone();
+            auto = Some(r);
+            kp
+        }
         TargetMap::Same => source_kp.clone(),
         TargetMap::List(v) => {
             if v.len() != source_kp.len() {
@@ -239,8 +278,16 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
         seed: a.select.seed,
         ..TransferOptions::default()
     };
+    // A rotated onto B by the registration: transforms in B's frame.
+    let (source_t, transforms) = match &auto {
+        Some(r) => (
+            r.source_in_target_frame(&source)?,
+            r.target_frame_transforms(&transforms),
+        ),
+        None => (source.clone(), transforms),
+    };
     let res = transfer_detailed(
-        &source,
+        &source_t,
         &source_kp,
         &transforms,
         &target,
@@ -251,6 +298,9 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
     create_dir(&a.out)?;
     for (p, m) in mesh_out.iter().zip(&res.meshes) {
         write_ply(p, m)?;
+    }
+    if let Some(r) = &auto {
+        write_ply(&reg_out, &r.registered)?;
     }
     let rows: Vec<KeypointRow> = source_kp
         .iter()
@@ -275,7 +325,22 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
                 sources.len()
             ),
             TargetMap::FromFile => "keypoints file".to_string(),
+            TargetMap::Auto => "automatic (registration of the source onto the target)".to_string(),
         },
+        "auto_correspondence": auto.as_ref().map(|r| json!({
+            "coarse_residual_sqrt_area": r.coarse.residual,
+            "coarse_candidate_scores": r.coarse.candidate_scores,
+            "coarse_chosen": r.coarse.chosen,
+            "residual_sqrt_area": r.residual,
+            "residual_trace_sqrt_area": r.residual_trace,
+            "alpha": r.alpha,
+            "coarse_rotation_deg": r.coarse.motion.angle_deg(),
+            "transforms_in_target_frame": r.frames_differ(),
+            "seconds_coarse": r.seconds_coarse,
+            "seconds_registration": r.seconds_registration,
+            "seconds": r.seconds,
+            "output": reg_out.display().to_string(),
+        })),
         "frame": topts.frame.name(),
         "refine": a.refine,
         "selection": log_sel,
@@ -306,6 +371,9 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
     for p in &mesh_out {
         println!("  wrote {}", p.display());
     }
+    if auto.is_some() {
+        println!("  wrote {}", reg_out.display());
+    }
     println!("  wrote {} and {}", kp_out.display(), log_out.display());
     Ok(ExitCode::SUCCESS)
 }
@@ -316,6 +384,9 @@ fn target_map(
     target: &Mesh,
     given: Option<&(PathBuf, Vec<KeypointRow>)>,
 ) -> Result<TargetMap> {
+    if a.auto_correspondence {
+        return Ok(TargetMap::Auto);
+    }
     if a.same_connectivity {
         if source.n_vertices() != target.n_vertices() {
             return Err(Error::parse(
@@ -384,11 +455,13 @@ fn target_map(
     match given {
         Some((_, rows)) if rows.iter().all(|r| r.target.is_some()) => Ok(TargetMap::FromFile),
         Some((path, _)) => Err(Error::invalid(format!(
-            "{} has no `target` column; pass --same-connectivity, --target-keypoints or --correspondence",
+            "{} has no `target` column; pass --same-connectivity, --target-keypoints, --correspondence or \
+             --auto-correspondence",
             path.display()
         ))),
         None => Err(Error::invalid(
-            "no target key points: pass --same-connectivity, --target-keypoints or --correspondence",
+            "no target key points: pass --same-connectivity, --target-keypoints, --correspondence \
+             or --auto-correspondence",
         )),
     }
 }

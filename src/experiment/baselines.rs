@@ -34,7 +34,8 @@ use std::time::Instant;
 use super::cases::Case;
 use super::config::{Method, MetricsSpec, NamedMethod};
 use super::methods::{
-    auto_keypoints, measure, owned, record_keypoints, save_mesh, CaseMeshes, RenderOut,
+    auto_keypoints, measure, owned, record_keypoints, save_mesh, target_keypoints, CaseMeshes,
+    RenderOut,
 };
 use super::store::{num, secs, CaseResult};
 use crate::baselines::{
@@ -96,19 +97,20 @@ pub fn run(
         }
         (0..a.n_vertices()).map(|i| (i, i)).collect()
     } else {
-        if b.n_vertices() != a.n_vertices() {
-            return Err(Error::invalid(format!(
-                "source has {} vertices, target {}: the harness maps key points between meshes \
-                 of one connectivity only (target key point = source key point)",
-                a.n_vertices(),
-                b.n_vertices()
-            )));
-        }
         let t = Instant::now();
         let kp = auto_keypoints(a, &a_def, p, out)?;
         out.set("seconds_selection", secs(t.elapsed().as_secs_f64()));
         record_keypoints(&kp, out);
-        kp.iter().map(|&k| (k, k)).collect()
+        // Target key points: identity / automatic, optional noise (issue 8).
+        let dir = render.map(|r| r.dir.join(&m.name));
+        let (tk, auto) = target_keypoints(cm, &kp, p, dir.as_deref(), out)?;
+        if auto.as_ref().is_some_and(|r| r.frames_differ()) {
+            return Err(Error::invalid(
+                "the registration rotated the source onto the target: the baselines assume \
+                 one frame (only bdt re-expresses its transforms in the target's frame)",
+            ));
+        }
+        kp.iter().copied().zip(tk).collect()
     };
 
     let t_solve;

@@ -145,6 +145,12 @@ pub struct SyntheticSpec {
     pub tail: Option<bool>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spread: Option<f64>,
+    /// Also serve a remesh of subject 0 (about `remesh · n` vertices, other
+    /// connectivity, [`crate::data::synthetic::remesh`]) as the subject
+    /// `"remesh"`, in every pose of subject 0 (exact: its vertices lie on
+    /// subject 0's surface), for cross-topology transfer with ground truth.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub remesh: Option<f64>,
 }
 
 impl SyntheticSpec {
@@ -266,6 +272,25 @@ pub enum TargetWeightsSpec {
     Auto,
     Bounded,
     Fast,
+}
+
+/// How the target key points are found.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum TargetCorrespondenceSpec {
+    /// Target vertex = source vertex (shared connectivity).
+    Identity,
+    /// Registration of A onto B ([`crate::transfer::auto_correspondence`]).
+    Auto,
+}
+
+/// The resolved target key point options of a method.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TargetPoints {
+    pub correspondence: TargetCorrespondenceSpec,
+    /// Noise radius in √area(B) units.
+    pub noise: f64,
+    pub noise_seed: u64,
 }
 
 /// Method kinds.
@@ -392,6 +417,19 @@ macro_rules! pipeline_struct {
             /// Target weights: `auto` (default), `bounded`, `fast`.
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub target_weights: Option<TargetWeightsSpec>,
+            /// Target key points: `identity` (default; shared connectivity,
+            /// target vertex = source vertex) or `auto` (registration of A
+            /// onto B, [`crate::transfer::auto`]; any connectivity).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub target_correspondence: Option<TargetCorrespondenceSpec>,
+            /// Geodesic noise on the target key points: each moves to a random
+            /// vertex within this edge-path radius, √area(B) units (default 0).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub target_noise: Option<f64>,
+            /// Seed of the target noise (default 0; independent of `seed`, so
+            /// the key points on A stay the same across noise seeds).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub target_noise_seed: Option<u64>,
         }
     };
 }
@@ -579,6 +617,8 @@ pub struct Pipeline {
     pub transfer: TransferOptions,
     /// Select from the first m deformed poses only.
     pub selection_poses: Option<usize>,
+    /// Target key points (identity or automatic, optional noise).
+    pub target: TargetPoints,
 }
 
 /// A resolved method: one variant per pipeline, with its parameters.
@@ -906,6 +946,15 @@ fn check_dataset(c: &LoadedConfig) -> Result<()> {
         if !(0.0..=0.4).contains(&fs.spread) {
             return Err(bad(&c.path, "dataset.synthetic.spread", "expected 0..=0.4"));
         }
+        if let Some(k) = s.remesh {
+            if !(0.3..=2.0).contains(&k) {
+                return Err(bad(
+                    &c.path,
+                    "dataset.synthetic.remesh",
+                    format!("expected a vertex ratio in [0.3, 2], got {k}"),
+                ));
+            }
+        }
     }
     Ok(())
 }
@@ -1015,11 +1064,23 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
         let pipe = merge_pipeline!(m, config.defaults;
             n_candidates, seed, epsilon, error_norm, max_keypoints, mode, fps, groups,
             gamma_logr, gamma_s, n_groups, use_ediff, lambda, max_swap_passes, kmeans_sample,
-            arap_max_iter, selection_poses, frame, refine, target_weights);
+            arap_max_iter, selection_poses, frame, refine, target_weights,
+            target_correspondence, target_noise, target_noise_seed);
         let pipeline = pipeline(&pipe, config.seed, path, i)?;
         let seed = pipe.seed.unwrap_or(config.seed);
         if m.kind != MethodKind::Fbt {
             not_for("fbt", m.fbt.is_some())?;
+        }
+        if matches!(
+            m.kind,
+            MethodKind::Fbt | MethodKind::Clustering | MethodKind::SumnerOracle
+        ) {
+            not_for(
+                "target_correspondence",
+                pipe.target_correspondence.is_some(),
+            )?;
+            not_for("target_noise", pipe.target_noise.is_some())?;
+            not_for("target_noise_seed", pipe.target_noise_seed.is_some())?;
         }
         let method = match m.kind {
             MethodKind::Fbt => {
@@ -1252,10 +1313,25 @@ fn pipeline(p: &PipelineSpec, seed: u64, path: &Path, i: usize) -> Result<Pipeli
         seed: keypoints.seed,
         ..TransferOptions::default()
     };
+    let noise = p.target_noise.unwrap_or(0.0);
+    if !(noise.is_finite() && (0.0..=1.0).contains(&noise)) {
+        return Err(bad(
+            path,
+            key("target_noise"),
+            format!("expected a radius in [0, 1] (√area units), got {noise}"),
+        ));
+    }
     Ok(Pipeline {
         keypoints,
         transfer,
         selection_poses: p.selection_poses,
+        target: TargetPoints {
+            correspondence: p
+                .target_correspondence
+                .unwrap_or(TargetCorrespondenceSpec::Identity),
+            noise,
+            noise_seed: p.target_noise_seed.unwrap_or(0),
+        },
     })
 }
 

@@ -129,10 +129,11 @@ impl Collection {
         if let Some(m) = &d.manifest {
             return Self::manifest(&base.join(&m.path));
         }
-        let spec = d.synthetic.clone().unwrap_or_default().faust_style();
+        let synth = d.synthetic.clone().unwrap_or_default();
+        let spec = synth.faust_style();
         let set = spec.generate()?;
         let n = set.n_vertices();
-        let subjects = set
+        let mut subjects: Vec<Subject> = set
             .meshes
             .iter()
             .zip(&set.rest)
@@ -147,10 +148,31 @@ impl Collection {
                 extra: vec![PoseEntry::memory("rest".to_string(), rest.clone())],
             })
             .collect();
+        // The remeshed subject 0 (issue 8: cross-topology transfer).
+        let mut remesh_note = String::new();
+        if let Some(keep) = synth.remesh {
+            let r = set.remesh(keep)?;
+            let mut poses = Vec::new();
+            for (p, m) in set.meshes[0].iter().enumerate() {
+                poses.push(PoseEntry::memory(p.to_string(), r.transfer(m)?));
+            }
+            remesh_note = format!(
+                " + subject \"remesh\" (subject 0 remeshed, {} vertices)",
+                r.mesh.n_vertices()
+            );
+            subjects.push(Subject {
+                id: "remesh".to_string(),
+                poses,
+                extra: vec![PoseEntry::memory(
+                    "rest".to_string(),
+                    r.transfer(&set.rest[0])?,
+                )],
+            });
+        }
         Ok(Collection {
             kind: "synthetic",
             description: format!(
-                "synthetic FAUST-style set (seed {}), {} subject{} × {} poses, {n} vertices",
+                "synthetic FAUST-style set (seed {}), {} subject{} × {} poses, {n} vertices{remesh_note}",
                 spec.seed,
                 spec.subjects,
                 if spec.subjects == 1 { "" } else { "s" },

@@ -21,6 +21,19 @@
 //! * clustering: `ari`, `purity` against the dataset's true labels (synthetic
 //!   set), `rigidity_unit` (RMS residual of the best rigid motion of each
 //!   cluster onto every deformed pose, unit-sphere units of `A`).
+//! * target key points (issue 8): `target_correspondence` (`identity`:
+//!   target vertex = source vertex, or `auto`: registration of A onto B,
+//!   [`crate::transfer::auto`]), `target_noise` (geodesic noise radius,
+//!   √area(B) units, [`crate::transfer::perturb_keypoints`] seeded with
+//!   `target_noise_seed`), `target_keypoints` (the target vertices used),
+//!   `target_keypoint_error_area` (mean edge-path distance on B between the
+//!   used and the true target key points, √area(B) units; only when B
+//!   shares A's faces, where the truth is the source index),
+//!   `registration_residual_area` (symmetric mean closest-point distance of
+//!   the registered A to B), `target_frame` (`source`: A and B in one frame,
+//!   transforms applied as fitted; `registration`: the frames differ and the
+//!   transforms are re-expressed in B's frame by the coarse alignment,
+//!   [`crate::transfer::auto`]) and `seconds_correspondence`.
 //! * timings: `seconds_selection`, `seconds_fit`, `seconds_weights` (target
 //!   weights), `seconds_weights_per_handle` (BDT Table 1 "SWT/h"),
 //!   `seconds_lbs` and `seconds_lbs_per_pose` (Table 1 "LBS time"),
@@ -35,7 +48,10 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::cases::Case;
-use super::config::{ExamplesSpec, Method, MetricsSpec, NamedMethod, PoolSpec, StrategySpec};
+use super::config::{
+    ExamplesSpec, Method, MetricsSpec, NamedMethod, PoolSpec, StrategySpec,
+    TargetCorrespondenceSpec,
+};
 use super::dataset::Collection;
 use super::store::{num, secs, CaseResult, Curve};
 use crate::eval::{
@@ -50,7 +66,10 @@ use crate::ops::{
 };
 use crate::skin::bbw::{BbwOptions, Biharmonic, WeightMode};
 use crate::skin::rotation_groups;
-use crate::transfer::{fit_keypoints, select_keypoints, transfer_detailed, SelectionMode};
+use crate::transfer::{
+    auto_correspondence, fit_keypoints, perturb_keypoints, select_keypoints, transfer_detailed,
+    AutoCorrespondence, AutoOptions, SelectionMode,
+};
 use crate::{Error, Result};
 
 /// Where a render case's meshes go (`None`: not a render case).
@@ -150,14 +169,6 @@ fn bdt(
     let a = &*cm.a;
     let a_def = owned(&cm.a_def);
     let b = &*cm.b;
-    if b.n_vertices() != a.n_vertices() {
-        return Err(Error::invalid(format!(
-            "source has {} vertices, target {}: the harness transfers between meshes of one \
-             connectivity only (target key points = source key points)",
-            a.n_vertices(),
-            b.n_vertices()
-        )));
-    }
     // Key points.
     let t = Instant::now();
     let keypoints: Vec<usize> = match &m.method {
@@ -188,8 +199,34 @@ fn bdt(
     }
     out.set("fit_error_unit", num(fit_err / a_def.len() as f64));
 
-    // Transfer.
-    let tr = transfer_detailed(a, &keypoints, &fit.transforms, b, &keypoints, &p.transfer)?;
+    // Target key points and transfer.
+    let (target_kp, auto) = target_keypoints(
+        cm,
+        &keypoints,
+        p,
+        render.map(|r| r.dir.join(&m.name)).as_deref(),
+        out,
+    )?;
+    // A rotated onto B by the registration: transforms in B's frame.
+    let (a_t, transforms) = match &auto {
+        Some(r) => (
+            r.source_in_target_frame(a)?,
+            r.target_frame_transforms(&fit.transforms),
+        ),
+        None => (a.clone(), fit.transforms.clone()),
+    };
+    if let Some(r) = &auto {
+        out.set(
+            "target_frame",
+            if r.frames_differ() {
+                "registration"
+            } else {
+                "source"
+            }
+            .to_string(),
+        );
+    }
+    let tr = transfer_detailed(&a_t, &keypoints, &transforms, b, &target_kp, &p.transfer)?;
     out.set("seconds_weights", secs(tr.seconds_weights));
     out.set(
         "seconds_weights_per_handle",
@@ -216,6 +253,60 @@ fn bdt(
     Ok(())
 }
 
+/// What a selection contributes to a row.
+#[derive(Clone)]
+struct SelectionSummary {
+    keypoints: Vec<usize>,
+    error: f64,
+    evaluations: usize,
+    trace: Vec<crate::transfer::TraceStep>,
+}
+
+/// Selections already made in this process, keyed by a hash of the source
+/// meshes and the options: configs that repeat one selection in many rows
+/// (e.g. `auto-noise.toml`: one per noise level and seed) select once. The
+/// selection is deterministic, so a memoised row equals a recomputed one
+/// (`seconds_selection` aside: near zero for a memo hit).
+fn memo_select(
+    a: &Mesh,
+    a_def: &[Mesh],
+    kopts: &crate::transfer::KeypointOptions,
+) -> Result<SelectionSummary> {
+    use std::collections::HashMap;
+    use std::sync::{Mutex, OnceLock};
+    static MEMO: OnceLock<Mutex<HashMap<(u64, String), SelectionSummary>>> = OnceLock::new();
+    let mut bytes: Vec<u8> = Vec::new();
+    for m in std::iter::once(a).chain(a_def) {
+        for p in m.vertices() {
+            for c in p.coords.iter() {
+                bytes.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        for f in m.faces() {
+            for &i in f {
+                bytes.extend_from_slice(&(i as u64).to_le_bytes());
+            }
+        }
+        bytes.push(0xff);
+    }
+    let key = (super::config::fnv1a(&bytes), format!("{kopts:?}"));
+    let memo = MEMO.get_or_init(|| Mutex::new(HashMap::new()));
+    if let Some(s) = memo.lock().ok().and_then(|m| m.get(&key).cloned()) {
+        return Ok(s);
+    }
+    let sel = select_keypoints(a, a_def, kopts)?;
+    let s = SelectionSummary {
+        keypoints: sel.keypoints,
+        error: sel.error,
+        evaluations: sel.evaluations,
+        trace: sel.trace,
+    };
+    if let Ok(mut m) = memo.lock() {
+        m.insert(key, s.clone());
+    }
+    Ok(s)
+}
+
 /// The automatic key points of BDT (Algorithm 1 with the pipeline's
 /// options, from its first `selection_poses` poses); records the selection
 /// columns and its trace curve.
@@ -228,7 +319,7 @@ pub(super) fn auto_keypoints(
     let kopts = &p.keypoints;
     let k = p.selection_poses.unwrap_or(a_def.len()).min(a_def.len());
     out.set("n_selection_poses", k.to_string());
-    let sel = select_keypoints(a, &a_def[..k], kopts)?;
+    let sel = memo_select(a, &a_def[..k], kopts)?;
     out.set("selection_error", num(sel.error));
     out.set("selection_evaluations", sel.evaluations.to_string());
     let trace: Vec<(f64, f64)> = sel
@@ -240,6 +331,84 @@ pub(super) fn auto_keypoints(
     let (x, y): (Vec<f64>, Vec<f64>) = trace.into_iter().unzip();
     out.curves.push(Curve::new("selection_trace", &x, &y));
     Ok(sel.keypoints)
+}
+
+/// The target vertices of the source key points `keypoints` on the case's
+/// `B` (see the module documentation: identity or automatic, then the
+/// optional geodesic noise); records the `target_*` columns. With
+/// `render_dir`, an automatic registration saves `registered.ply` (A
+/// registered onto B) there. Also returns the registration (automatic only).
+pub(super) fn target_keypoints(
+    cm: &CaseMeshes,
+    keypoints: &[usize],
+    p: &super::config::Pipeline,
+    render_dir: Option<&Path>,
+    out: &mut CaseResult,
+) -> Result<(Vec<usize>, Option<AutoCorrespondence>)> {
+    let (a, b) = (&*cm.a, &*cm.b);
+    let spec = p.target;
+    let t = Instant::now();
+    let mut auto = None;
+    let mut target: Vec<usize> = match spec.correspondence {
+        TargetCorrespondenceSpec::Identity => {
+            if b.n_vertices() != a.n_vertices() {
+                return Err(Error::invalid(format!(
+                    "source has {} vertices, target {}: target_correspondence = \"identity\" \
+                     (the default) needs one connectivity; use target_correspondence = \"auto\"",
+                    a.n_vertices(),
+                    b.n_vertices()
+                )));
+            }
+            out.set("target_correspondence", "identity".to_string());
+            keypoints.to_vec()
+        }
+        TargetCorrespondenceSpec::Auto => {
+            let r = auto_correspondence(
+                a,
+                keypoints,
+                b,
+                &AutoOptions {
+                    seed: p.keypoints.seed,
+                    ..AutoOptions::default()
+                },
+            )?;
+            out.set("target_correspondence", "auto".to_string());
+            out.set("registration_residual_area", num(r.residual));
+            if let Some(dir) = render_dir {
+                save_mesh(&dir.join("registered.ply"), &r.registered)?;
+            }
+            let kp = r.target_keypoints.clone();
+            auto = Some(r);
+            kp
+        }
+    };
+    if spec.noise > 0.0 {
+        let radius = spec.noise * total_area(b).sqrt();
+        target = perturb_keypoints(b, &target, radius, spec.noise_seed)?;
+    }
+    out.set("target_noise", num(spec.noise));
+    out.set("seconds_correspondence", secs(t.elapsed().as_secs_f64()));
+    out.set(
+        "target_keypoints",
+        target
+            .iter()
+            .map(|k| k.to_string())
+            .collect::<Vec<_>>()
+            .join(";"),
+    );
+    if a.faces() == b.faces() {
+        let graph = EdgeGraph::new(b);
+        let s = total_area(b).sqrt();
+        let mut sum = 0.0;
+        for (&k, &t) in keypoints.iter().zip(&target) {
+            sum += graph.distances(&[k])?[t] / s;
+        }
+        out.set(
+            "target_keypoint_error_area",
+            num(sum / keypoints.len().max(1) as f64),
+        );
+    }
+    Ok((target, auto))
 }
 
 /// Records `n_keypoints` and `keypoints`.

@@ -87,6 +87,9 @@ pub fn column_label(c: &str) -> String {
         "perm_correct" => "share of trials with the true assignment".into(),
         "dict_size" => "dictionary size b".into(),
         "arap_energy_linear" => "relative ARAP energy of the linear blend".into(),
+        "target_noise" => "target key point noise radius r (√area units)".into(),
+        "target_keypoint_error_area" => "target key point error (geodesic, √area units)".into(),
+        "registration_residual_area" => "registration residual (√area units)".into(),
         c if c.starts_with("seconds_") => {
             format!("{} (s)", c.trim_start_matches("seconds_").replace('_', " "))
         }
@@ -755,7 +758,20 @@ fn table(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
 }
 
 fn keypoints_of(row: &Row) -> Vec<(usize, usize)> {
-    row.get("keypoints")
+    keypoint_column(row, "keypoints")
+}
+
+/// The key points on the target: `target_keypoints` when recorded (automatic
+/// or noisy target points), else the source indices.
+fn target_keypoints_of(row: &Row) -> Vec<(usize, usize)> {
+    match row.get("target_keypoints") {
+        Some(s) if !s.is_empty() => keypoint_column(row, "target_keypoints"),
+        _ => keypoints_of(row),
+    }
+}
+
+fn keypoint_column(row: &Row, column: &str) -> Vec<(usize, usize)> {
+    row.get(column)
         .map(|s| {
             s.split(';')
                 .filter_map(|x| x.parse::<usize>().ok())
@@ -894,16 +910,27 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                     reference.as_ref(),
                     pose,
                     fits,
-                    kp0,
+                    (kp0, target_keypoints_of(shown[0].1)),
                 )
             };
             let mut results: Vec<ResultPanel> = Vec::new();
+            let mut registered: Vec<Panel> = Vec::new();
             for (g, r) in &shown {
                 let m = &r["method"];
                 let file = if fits { "fit" } else { "result" };
                 let p = mdir.join(m).join(format!("{file}_{pose}.ply"));
                 if !p.exists() {
                     continue;
+                }
+                let reg = mdir.join(m).join("registered.ply");
+                if !fits && registered.is_empty() && reg.exists() {
+                    // Automatic target correspondence: A registered onto B.
+                    registered.push(Panel {
+                        label: format!("A→B, {g}"),
+                        mesh: read_mesh(&reg)?,
+                        coloring: Coloring::Plain,
+                        keypoints: keypoints_of(r),
+                    });
                 }
                 let mesh = read_mesh(&p)?;
                 let err = match &reference {
@@ -913,11 +940,17 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                         .collect(),
                     None => Vec::new(),
                 };
-                results.push((g.to_string(), mesh, err, keypoints_of(r)));
+                let kp = if fits {
+                    keypoints_of(r)
+                } else {
+                    target_keypoints_of(r)
+                };
+                results.push((g.to_string(), mesh, err, kp));
             }
             if results.is_empty() {
                 continue;
             }
+            ps.extend(registered);
             let mut all: Vec<f64> = results.iter().flat_map(|r| r.2.iter().copied()).collect();
             all.sort_by(f64::total_cmp);
             let hi = all
@@ -1000,8 +1033,12 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
     Ok(())
 }
 
+/// Key points of a panel: (vertex, key point index).
+type Keypoints = Vec<(usize, usize)>;
+
 /// The left panels of a BDT figure: source (with key points), deformed
-/// source, and for transfers the target and the ground truth.
+/// source, and for transfers the target (with its key points: the source's,
+/// or the recorded target key points) and the ground truth.
 fn header_panels(
     source: &Mesh,
     target: &Mesh,
@@ -1009,7 +1046,7 @@ fn header_panels(
     reference: Option<&Mesh>,
     pose: &str,
     fits: bool,
-    kp0: Vec<(usize, usize)>,
+    (kp0, kp_b): (Keypoints, Keypoints),
 ) -> Vec<Panel> {
     let mut ps = vec![
         Panel {
@@ -1030,7 +1067,10 @@ fn header_panels(
             label: "target B".into(),
             mesh: target.clone(),
             coloring: Coloring::Plain,
-            keypoints: Vec::new(),
+            keypoints: kp_b
+                .into_iter()
+                .filter(|&(v, _)| v < target.n_vertices())
+                .collect(),
         });
         if let Some(t) = reference {
             ps.push(Panel {

@@ -95,6 +95,12 @@ pub const CASE_COLUMNS: &[&str] = &[
     "perm_count",
     "interp_endpoint_error",
     "arap_energy_linear",
+    "target_correspondence",
+    "target_noise",
+    "target_keypoints",
+    "target_keypoint_error_area",
+    "registration_residual_area",
+    "target_frame",
     "seconds_selection",
     "seconds_fit",
     "seconds_weights",
@@ -108,6 +114,7 @@ pub const CASE_COLUMNS: &[&str] = &[
     "seconds_iteration",
     "seconds_solve",
     "seconds_nicp",
+    "seconds_correspondence",
     "seconds_total",
 ];
 
