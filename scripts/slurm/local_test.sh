@@ -123,10 +123,10 @@ say "unsharded run"
 "$bin" run "${configs[@]}" --out "$work/single" --no-plots >&2
 
 # Drops the columns whose header starts with seconds_ (timings), and, in
-# summary.csv, the rows describing them (column `column` = seconds_*).
+# summary.csv, the rows describing them (column `metric` = seconds_*).
 strip() {
     awk -F, 'NR == 1 { for (i = 1; i <= NF; i++) drop[i] = ($i ~ /^seconds_/); hdr = $0
-                       for (i = 1; i <= NF; i++) if ($i == "column") col = i }
+                       for (i = 1; i <= NF; i++) if ($i == "metric") col = i }
              { if (NR > 1 && col && $col ~ /^seconds_/) next
                line = ""; for (i = 1; i <= NF; i++) if (!drop[i]) line = line (line == "" ? "" : ",") $i
                print line }' "$1"
