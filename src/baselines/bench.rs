@@ -1,5 +1,8 @@
 //! Timing of Sumner & Popović deformation transfer: the correspondence
-//! step, the factorisation and one per-pose solve, medians over runs.
+//! step, the factorisation and one per-pose solve, medians over runs; and
+//! ([`bench_registration`]) of the FBT Fig. 7 registration baselines, Der
+//! et al. and Amberg NICP, on the synthetic and the TOSCA cat completion
+//! cases.
 //!
 //! Reads `../shared/data/sumner/cat-lion` (cat reference → lion reference
 //! with its 55 markers, the nine cat poses); when absent, the synthetic
@@ -137,5 +140,146 @@ pub fn bench(quick: bool) -> Result<String> {
         1e3 * median(t_fact),
         1e3 * median(t_solve)
     );
+    Ok(out)
+}
+
+/// One registration case of [`bench_registration`].
+struct RegCase {
+    name: String,
+    examples: Vec<Mesh>,
+    target: Mesh,
+}
+
+fn registration_cases(out: &mut String) -> Result<Vec<RegCase>> {
+    let class = crate::register::synthetic_class(1, 0)?;
+    let mut cases = vec![RegCase {
+        name: "synthetic class (Fig. 7 config, pose 5)".into(),
+        examples: class[..4].to_vec(),
+        target: class[5].clone(),
+    }];
+    match crate::data::shared_data_dir().map(|d| d.join("tosca")) {
+        Some(d) if d.is_dir() => {
+            let folder = crate::data::ToscaFolder::open(&d)?;
+            match folder.classes.get("cat") {
+                Some(entries) if entries.len() >= 5 => {
+                    let meshes: Vec<Mesh> =
+                        entries.iter().map(|e| e.load()).collect::<Result<_>>()?;
+                    let (_, meshes) = crate::mesh::set::adopt_consistent_faces(&meshes)?;
+                    cases.push(RegCase {
+                        name: "TOSCA cat (examples 0–3, last pose partial)".into(),
+                        examples: meshes[..4].to_vec(),
+                        target: meshes[meshes.len() - 1].clone(),
+                    });
+                }
+                _ => {
+                    let _ = writeln!(
+                        out,
+                        "TOSCA cat: fewer than 5 cat meshes in {}; skipped",
+                        d.display()
+                    );
+                }
+            }
+        }
+        _ => {
+            let _ = writeln!(
+                out,
+                "TOSCA cat: ../shared/data/tosca not found; only the synthetic case"
+            );
+        }
+    }
+    Ok(cases)
+}
+
+/// Median times of the registration baselines of FBT Fig. 7 (Der et al.
+/// and Amberg NICP) on the completion case: the synthetic class (q = 4,
+/// target pose 5) and, when `../shared/data/tosca` is present, the cat
+/// (examples cat0–3, the last cat partial). Partial target, 8 features × 10
+/// circles and options exactly as the `completion` task (the FBT rotation
+/// clusters of the default configuration). Medians of 3 runs (1 when
+/// `quick`).
+pub fn bench_registration(quick: bool) -> Result<String> {
+    use crate::baselines::{amberg_nicp, AmbergOptions, DerModel, DerOptions};
+    use crate::data::partial::{feature_points, make_partial, PartialOptions};
+    use crate::register::{
+        build, circle_radii, feature_circle_constraints, metrics, FbtConfig, NicpOptions,
+    };
+    let mut out = String::new();
+    let reps = if quick { 1 } else { 3 };
+    let cases = registration_cases(&mut out)?;
+    let _ = writeln!(
+        out,
+        "medians of {reps} run(s); {} thread(s) for faer; NICP 10 iterations (Der), Amberg default schedule\n",
+        crate::solve::threads()
+    );
+    let _ = writeln!(
+        out,
+        "| case | n | r | Der precompute (ms) | Der feature registration (ms) | Der NICP (s) | Der mean dist. | Amberg NICP (s) | Amberg mean dist. |"
+    );
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|");
+    for c in &cases {
+        let reference = &c.examples[0];
+        let area: f64 = crate::ops::mass_matrix(reference, crate::ops::MassKind::Voronoi)
+            .iter()
+            .sum();
+        let feats = feature_points(&c.target, 8, 0)?;
+        let partial = make_partial(&c.target, &feats, &PartialOptions::default())?;
+        let pairs: Vec<(usize, usize)> = feats
+            .iter()
+            .zip(&partial.features)
+            .map(|(&f, &g)| (f, g))
+            .collect();
+        let radii = circle_radii(10, 0.15 * area.sqrt());
+        let (rows, y) = feature_circle_constraints(reference, &partial.mesh, &pairs, &radii)?;
+        let setup = build(&c.examples, &FbtConfig::default())?;
+        let opts = DerOptions::default();
+        let icp = NicpOptions::default();
+        let (mut t_pre, mut t_reg, mut t_nicp, mut t_amb) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut d_der, mut d_amb) = (f64::NAN, f64::NAN);
+        let mut r = 0;
+        for _ in 0..reps {
+            let t = Instant::now();
+            let model = DerModel::new(&c.examples, &setup.clusters)?;
+            t_pre.push(t.elapsed().as_secs_f64());
+            r = model.n_clusters();
+            let t = Instant::now();
+            let prob = model.problem(&rows, &y, opts.beta)?;
+            let reg = model.register(&prob, &opts)?;
+            t_reg.push(t.elapsed().as_secs_f64());
+            let t = Instant::now();
+            let res = model.nicp((&rows, &y), &partial.mesh, &reg.state, &icp, &opts)?;
+            t_nicp.push(t.elapsed().as_secs_f64());
+            d_der = metrics::mean(&metrics::relative_distortion(
+                &res.positions,
+                c.target.vertices(),
+                area,
+            )?);
+            let t = Instant::now();
+            let res = amberg_nicp(
+                reference,
+                &partial.mesh,
+                (&rows, &y),
+                &AmbergOptions::default(),
+            )?;
+            t_amb.push(t.elapsed().as_secs_f64());
+            d_amb = metrics::mean(&metrics::relative_distortion(
+                &res.positions,
+                c.target.vertices(),
+                area,
+            )?);
+        }
+        let _ = writeln!(
+            out,
+            "| {} | {} | {r} | {:.1} | {:.1} | {:.2} | {:.4} | {:.2} | {:.4} |",
+            c.name,
+            reference.n_vertices(),
+            1e3 * median(t_pre),
+            1e3 * median(t_reg),
+            median(t_nicp),
+            d_der,
+            median(t_amb),
+            d_amb
+        );
+    }
     Ok(out)
 }

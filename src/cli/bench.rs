@@ -1,6 +1,6 @@
 //! `deformlab bench`: median timings of the numerical kernels, of bounded
 //! biharmonic weights, of key point selection, of FBT registration and of
-//! the baselines (Sumner DT, cage DT).
+//! the baselines (Sumner DT, cage DT, Der et al., Amberg NICP).
 
 use std::process::ExitCode;
 
@@ -61,6 +61,11 @@ pub fn run(groups: &[String], quick: bool, threads: usize, exact_full: bool) -> 
         print!("{}", deformlab::baselines::bench::bench(quick)?);
         println!("\n## Baselines on the synthetic Fig. 14 cases\n");
         print!("{}", deformlab::experiment::baselines::bench_fig14(quick)?);
+        println!("\n## Baselines on the FBT Fig. 7 completion case (Der et al., Amberg NICP)\n");
+        print!(
+            "{}",
+            deformlab::baselines::bench::bench_registration(quick)?
+        );
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -50,6 +50,7 @@ use super::config::{fnv1a, MetricsSpec};
 use super::dataset::Collection;
 use super::methods::RenderOut;
 use super::store::{num, secs, CaseResult, Curve};
+use crate::baselines::{amberg_nicp, AmbergOptions, DerModel, DerOptions};
 use crate::data::partial::{feature_points, make_partial, PartialOptions};
 use crate::eval::{
     arap_energy, cumulative_curve, curve_grid, error_stats, geodesic_error_curve, vertex_errors,
@@ -104,6 +105,31 @@ pub enum CompareSpec {
     All,
     /// Only the reference example (Fig. 8 B).
     First,
+}
+
+/// The deformation model of the `completion` task (FBT Fig. 7 baselines).
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum SolverSpec {
+    /// Fast blended transformations (the paper).
+    #[default]
+    Fbt,
+    /// Der, Sumner & Popović 2006 on the FBT rotation clusters
+    /// ([`crate::baselines::der`]), in the same completion procedure.
+    Der,
+    /// Amberg et al. 2007 optimal-step nonrigid ICP
+    /// ([`crate::baselines::amberg`]) with the feature circles as landmarks.
+    Amberg,
+}
+
+impl SolverSpec {
+    fn name(self) -> &'static str {
+        match self {
+            SolverSpec::Fbt => "fbt",
+            SolverSpec::Der => "der",
+            SolverSpec::Amberg => "amberg",
+        }
+    }
 }
 
 /// `[methods.fbt]` / `fbt = { .. }` of a `kind = "fbt"` method.
@@ -166,6 +192,10 @@ pub struct FbtSpec {
     /// Correspondence queries per case (Kim et al. curve, default 300).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub queries: Option<usize>,
+    /// Deformation model of the `completion` task: `"fbt"` (default),
+    /// `"der"` or `"amberg"`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub solver: Option<SolverSpec>,
 }
 
 impl FbtSpec {
@@ -228,6 +258,44 @@ impl FbtSpec {
                 "segments",
                 "segments / rig_poses apply to task = \"projection\" with dictionary = \"skeleton\"",
             );
+        }
+        match self.solver.unwrap_or_default() {
+            SolverSpec::Fbt => {}
+            other => {
+                if self.task != FbtTask::Completion {
+                    return e(
+                        "solver",
+                        &format!(
+                            "solver = \"{}\" applies to task = \"completion\" only",
+                            other.name()
+                        ),
+                    );
+                }
+                if self.dictionary.is_some() || self.m.is_some() || self.alpha.is_some() {
+                    return e(
+                        "solver",
+                        &format!(
+                            "dictionary / m / alpha are FBT options; solver = \"{}\" has none",
+                            other.name()
+                        ),
+                    );
+                }
+                if other == SolverSpec::Amberg {
+                    if self.nicp == Some(false) || self.nicp_iterations.is_some() {
+                        return e(
+                            "nicp",
+                            "solver = \"amberg\" is a nonrigid ICP with its own stiffness \
+                             schedule: nicp / nicp_iterations do not apply",
+                        );
+                    }
+                    if self.clusters.is_some() || self.compare.is_some() {
+                        return e(
+                            "clusters",
+                            "solver = \"amberg\" uses no rotation clusters or examples",
+                        );
+                    }
+                }
+            }
         }
         if self.task != FbtTask::Projection && self.dictionary == Some(DictionarySpec::Skeleton) {
             return e(
@@ -420,6 +488,12 @@ pub fn run(
         FbtTask::Permutation => permutation(&fc, spec, seed, out),
         FbtTask::Interpolation => interpolation(&fc, spec, seed, out, render_dir.as_deref(), &pose),
     }
+}
+
+fn template_area(m: &Mesh) -> f64 {
+    crate::ops::mass_matrix(m, crate::ops::MassKind::Voronoi)
+        .iter()
+        .sum()
 }
 
 fn set_distortion(out: &mut CaseResult, d: &[f64], suffix: &str) {
@@ -618,7 +692,10 @@ fn scale(
     Ok(())
 }
 
-/// Figs. 6–8: partial target, feature registration, NICP.
+/// Figs. 6–8: partial target, feature registration, NICP — with FBT's
+/// blended transformations, Der et al.'s reduced model, or Amberg et al.'s
+/// optimal-step NICP as the deformation model (`solver`); the partial
+/// target, the features and the measurements are the same for all three.
 #[allow(clippy::too_many_arguments)]
 fn completion(
     fc: &FbtCase,
@@ -631,12 +708,11 @@ fn completion(
     pose: &str,
 ) -> Result<()> {
     let params = spec.params();
-    let t = Instant::now();
-    let setup = build(&fc.examples, &spec.config(seed))?;
-    out.set("seconds_precompute", secs(t.elapsed().as_secs_f64()));
-    out.set("dict_size", setup.sizes.1.to_string());
-    out.set("n_clusters", setup.pipeline.main().n_clusters().to_string());
-    let area = setup.graph.area();
+    let solver = spec.solver.unwrap_or_default();
+    let reference = &fc.examples[0];
+    // √area unit of every measure: the reference's (Voronoi) area, as FBT's
+    // `ArapGraph::area`.
+    let area = template_area(reference);
     // Partial target: depends on the case only (same for every method).
     let pseed = fnv1a(case.id.as_bytes());
     let feats = feature_points(&fc.target, spec.features.unwrap_or(8), pseed)?;
@@ -656,34 +732,101 @@ fn completion(
         .collect();
     let (rows, y) = circles(fc, spec, &partial.mesh, &pairs, area, 0.15)?;
     out.set("n_constraints", rows.len().to_string());
-    let t = Instant::now();
-    let sys = setup.pipeline.systems(&rows, &params)?;
-    let reg = sys.solve(&y, &Schedule::default())?;
-    out.set("seconds_solve", secs(t.elapsed().as_secs_f64()));
-    out.set("alpha", num(reg.alpha));
-    let before = metrics::relative_distortion(&reg.positions, fc.target.vertices(), area)?;
-    set_distortion(out, &before, "_init");
-    let positions = if spec.nicp.unwrap_or(true) {
-        let t = Instant::now();
-        let opts = NicpOptions {
-            iterations: spec.nicp_iterations.unwrap_or(10),
-            seed,
-            ..NicpOptions::default()
-        };
-        let res = nicp(
-            setup.pipeline.last(),
-            &params,
-            (&rows, &y),
-            &partial.mesh,
-            &reg.t,
-            reg.alpha,
-            &opts,
-        )?;
-        out.set("seconds_nicp", secs(t.elapsed().as_secs_f64()));
-        out.set("alpha", num(res.alpha));
-        res.positions
-    } else {
-        reg.positions.clone()
+    let icp = NicpOptions {
+        iterations: spec.nicp_iterations.unwrap_or(10),
+        seed,
+        ..NicpOptions::default()
+    };
+    let positions = match solver {
+        SolverSpec::Fbt => {
+            let t = Instant::now();
+            let setup = build(&fc.examples, &spec.config(seed))?;
+            out.set("seconds_precompute", secs(t.elapsed().as_secs_f64()));
+            out.set("dict_size", setup.sizes.1.to_string());
+            out.set("n_clusters", setup.pipeline.main().n_clusters().to_string());
+            let t = Instant::now();
+            let sys = setup.pipeline.systems(&rows, &params)?;
+            let reg = sys.solve(&y, &Schedule::default())?;
+            out.set("seconds_solve", secs(t.elapsed().as_secs_f64()));
+            out.set("alpha", num(reg.alpha));
+            let before = metrics::relative_distortion(&reg.positions, fc.target.vertices(), area)?;
+            set_distortion(out, &before, "_init");
+            if spec.nicp.unwrap_or(true) {
+                let t = Instant::now();
+                let res = nicp(
+                    setup.pipeline.last(),
+                    &params,
+                    (&rows, &y),
+                    &partial.mesh,
+                    &reg.t,
+                    reg.alpha,
+                    &icp,
+                )?;
+                out.set("seconds_nicp", secs(t.elapsed().as_secs_f64()));
+                out.set("alpha", num(res.alpha));
+                res.positions
+            } else {
+                reg.positions.clone()
+            }
+        }
+        SolverSpec::Der => {
+            // The same rotation clusters as FBT: those of the FBT setup of
+            // this case (same configuration and seed).
+            // (Their construction is not timed: it is FBT's.)
+            let setup = build(&fc.examples, &spec.config(seed))?;
+            let t = Instant::now();
+            let model = DerModel::new(&fc.examples, &setup.clusters)?;
+            out.set("seconds_precompute", secs(t.elapsed().as_secs_f64()));
+            out.set("n_clusters", model.n_clusters().to_string());
+            out.set(
+                "dictionary",
+                format!(
+                    "Der et al. (weights of {} examples, {} clusters)",
+                    model.n_examples(),
+                    model.n_clusters()
+                ),
+            );
+            let opts = DerOptions {
+                beta: params.beta_lc,
+                ..DerOptions::default()
+            };
+            let t = Instant::now();
+            let prob = model.problem(&rows, &y, opts.beta)?;
+            let reg = model.register(&prob, &opts)?;
+            out.set("seconds_solve", secs(t.elapsed().as_secs_f64()));
+            out.set("iterations", reg.iterations.to_string());
+            let before = metrics::relative_distortion(&reg.positions, fc.target.vertices(), area)?;
+            set_distortion(out, &before, "_init");
+            if spec.nicp.unwrap_or(true) {
+                let t = Instant::now();
+                let res = model.nicp((&rows, &y), &partial.mesh, &reg.state, &icp, &opts)?;
+                out.set("seconds_nicp", secs(t.elapsed().as_secs_f64()));
+                res.positions
+            } else {
+                reg.positions
+            }
+        }
+        SolverSpec::Amberg => {
+            let opts = AmbergOptions {
+                icp: NicpOptions { samples: 0, ..icp },
+                ..AmbergOptions::default()
+            };
+            out.set(
+                "dictionary",
+                format!(
+                    "Amberg NICP (reference only, {} stiffness steps)",
+                    opts.stiffness.len()
+                ),
+            );
+            let t = Instant::now();
+            let res = amberg_nicp(reference, &partial.mesh, (&rows, &y), &opts)?;
+            out.set("seconds_nicp", secs(t.elapsed().as_secs_f64()));
+            out.set(
+                "iterations",
+                res.steps.iter().map(|s| s.1).sum::<usize>().to_string(),
+            );
+            res.positions
+        }
     };
     let d = metrics::relative_distortion(&positions, fc.target.vertices(), area)?;
     set_distortion(out, &d, "");
@@ -731,7 +874,7 @@ fn completion(
         save(
             dir,
             &format!("result_{pose}.ply"),
-            &fc.examples[0].with_vertices(positions)?,
+            &reference.with_vertices(positions)?,
         )?;
         save(dir, &format!("partial_{pose}.ply"), &partial.mesh)?;
     }

@@ -1,0 +1,132 @@
+//! The correspondence step of the nonrigid ICP loops of the registration
+//! baselines ([`super::der`], [`super::amberg`]), with the same options and
+//! the same rules as FBT's [`crate::register::nicp`] (steps 1–2 there):
+//! for each sampled template vertex, the `neighbours` nearest target
+//! vertices (kd-tree on the target, built once) are examined and the
+//! nearest one whose normal makes an angle below `max_normal_angle_deg`
+//! with the deformed template's vertex normal is its match; pairs farther
+//! than `max_distance · √A` (A = template area), pairs without a compatible
+//! normal and — for partial targets — pairs whose target vertex lies on the
+//! target's boundary are rejected.
+
+use std::num::NonZero;
+
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+
+use crate::mesh::Mesh;
+use crate::ops::{boundary_vertices, farthest_point_sampling, vertex_normals, FpsMetric};
+use crate::register::NicpOptions;
+use crate::{Error, Point, Result, Vec3};
+
+/// Closest compatible points on a fixed target.
+pub struct Matcher {
+    reference: Mesh,
+    samples: Vec<usize>,
+    target: Vec<Point>,
+    normals: Vec<Vec3>,
+    boundary: Vec<bool>,
+    tree: ImmutableKdTree<f64, 3>,
+    dmax: f64,
+    cos_max: f64,
+    neighbours: usize,
+}
+
+/// The accepted pairs of one correspondence step.
+#[derive(Clone, Debug, Default)]
+pub struct Matches {
+    /// `(template vertex, target vertex)`.
+    pub pairs: Vec<(usize, usize)>,
+    /// Mean distance of the accepted pairs (NaN when none).
+    pub mean_distance: f64,
+}
+
+impl Matcher {
+    /// A matcher of template `reference` (whose faces define the deformed
+    /// template's normals; `area` its area) against `target`. `samples` of
+    /// the options: 0 or ≥ n matches every template vertex, otherwise the
+    /// farthest-point samples of the reference (seed `seed` of the options),
+    /// as in FBT's NICP.
+    pub fn new(reference: &Mesh, area: f64, target: &Mesh, opts: &NicpOptions) -> Result<Self> {
+        if target.n_vertices() == 0 {
+            return Err(Error::invalid("ICP target has no vertices"));
+        }
+        if !(opts.max_distance > 0.0 && area > 0.0) {
+            return Err(Error::invalid(
+                "ICP needs max_distance > 0 and a template of positive area",
+            ));
+        }
+        let n = reference.n_vertices();
+        let samples: Vec<usize> = if opts.samples == 0 || opts.samples >= n {
+            (0..n).collect()
+        } else {
+            farthest_point_sampling(reference, opts.samples, FpsMetric::Euclidean, opts.seed)?
+        };
+        let pts: Vec<[f64; 3]> = target.vertices().iter().map(|p| [p.x, p.y, p.z]).collect();
+        let tree = ImmutableKdTree::<f64, 3>::new_from_slice(&pts)
+            .map_err(|e| Error::numerical(format!("kd-tree construction failed: {e:?}")))?;
+        let boundary = if opts.reject_boundary {
+            boundary_vertices(target)
+        } else {
+            vec![false; target.n_vertices()]
+        };
+        Ok(Matcher {
+            reference: reference.clone(),
+            samples,
+            target: target.vertices().to_vec(),
+            normals: vertex_normals(target),
+            boundary,
+            tree,
+            dmax: opts.max_distance * area.sqrt(),
+            cos_max: opts.max_normal_angle_deg.to_radians().cos(),
+            neighbours: opts.neighbours.max(1),
+        })
+    }
+
+    /// The template vertices that are matched.
+    pub fn samples(&self) -> &[usize] {
+        &self.samples
+    }
+
+    /// Target vertex positions.
+    pub fn target(&self) -> &[Point] {
+        &self.target
+    }
+
+    /// Matches the deformed template `p` (reference connectivity).
+    pub fn matches(&self, p: &[Point]) -> Result<Matches> {
+        let deformed = self.reference.with_vertices(p.to_vec())?;
+        let normals = vertex_normals(&deformed);
+        let k = NonZero::new(self.neighbours).unwrap_or(NonZero::<usize>::MIN);
+        let mut pairs = Vec::new();
+        let mut dsum = 0.0;
+        for &i in &self.samples {
+            let hits = self
+                .tree
+                .query(&[p[i].x, p[i].y, p[i].z])
+                .nearest_n::<SquaredEuclidean<f64>>(k)
+                .execute();
+            let Some(h) = hits
+                .iter()
+                .find(|h| self.normals[h.item as usize].dot(&normals[i]) >= self.cos_max)
+            else {
+                continue;
+            };
+            let j = h.item as usize;
+            let d = h.distance.max(0.0).sqrt();
+            if d > self.dmax || self.boundary[j] {
+                continue;
+            }
+            pairs.push((i, j));
+            dsum += d;
+        }
+        let mean_distance = if pairs.is_empty() {
+            f64::NAN
+        } else {
+            dsum / pairs.len() as f64
+        };
+        Ok(Matches {
+            pairs,
+            mean_distance,
+        })
+    }
+}
