@@ -52,7 +52,7 @@ for t in "${TARGETS[@]}"; do
     set -e
     end=$(date +%s)
     after=$(find "fuzz/artifacts/$t" -type f | wc -l)
-    execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -1)
+    execs=$(grep -ao 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -1 || true)
     printf '%-12s %14s %9s %8s\n' "$t" "${execs:-?}" "$((end - start))" "$((after - before))"
     if [ "$rc" -ne 0 ]; then
         status=1
