@@ -1109,6 +1109,14 @@ fn c18_fuzz_regressions() {
         parse_vert_tri(b"0 0 0\n", b"1e300 1 1\n", name),
         &["fuzz.tri"],
     );
+    // Config: a syntax error on a line whose key follows a multi-byte
+    // character ('‖') made the key lookup slice inside that character
+    // (found by the `config` target after 68 779 executions).
+    let text = std::str::from_utf8(include_bytes!("data/fuzz/config_char_boundary.toml")).unwrap();
+    expect_err(
+        deformlab::experiment::parse_config(text, Path::new("fuzz.toml")),
+        &["fuzz.toml", "line"],
+    );
 }
 
 // 19. Empty files, no faces, degenerate polygons.
