@@ -737,7 +737,10 @@ fn valid_name(s: &str) -> bool {
 /// TOML text, reconstructed from the table headers above it and the key on
 /// its line.
 fn key_at(text: &str, offset: usize) -> (String, usize) {
-    let offset = offset.min(text.len());
+    let mut offset = offset.min(text.len());
+    while !text.is_char_boundary(offset) {
+        offset -= 1;
+    }
     let line_start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
     let line_no = text[..offset].matches('\n').count() + 1;
     let mut table = String::new();
@@ -782,7 +785,9 @@ fn key_at(text: &str, offset: usize) -> (String, usize) {
                     .rfind(|c: char| {
                         !(c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.')
                     })
-                    .map_or(0, |p| p + 1);
+                    .map_or(0, |p| {
+                        p + head[p..].chars().next().map_or(1, char::len_utf8)
+                    });
                 let k = head[start..].to_string();
                 if !k.is_empty() {
                     found = Some(k);

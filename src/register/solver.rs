@@ -393,6 +393,15 @@ impl FbtSystem {
         if y.iter().any(|v| !v.is_finite()) {
             return Err(Error::invalid("constraint targets are not finite"));
         }
+        // Without any target point the solve is undetermined (the scale
+        // collapses to 0 and every vertex to one point): refuse it.
+        if !self.available.iter().any(|&a| a) {
+            return Err(Error::invalid(format!(
+                "no constraint rows available ({} rows, all unavailable or none given): the \
+                 target has no points to register to (an empty partial shape?)",
+                self.rows.len()
+            )));
+        }
         Ok(())
     }
 

@@ -71,6 +71,32 @@ pub fn read_raw(path: &Path) -> Result<RawMesh> {
     }
 }
 
+/// Parses the bytes of a single-file mesh (`Ply`, `Off` or `Obj`) without
+/// touching the file system; `name` only names the input in messages. A
+/// TOSCA pair needs two files: use [`parse_vert_tri`].
+pub fn parse_raw(format: Format, bytes: &[u8], name: &Path) -> Result<RawMesh> {
+    match format {
+        Format::Ply => ply::parse_ply(name, bytes),
+        Format::Off => off::parse_off(name, &text::decode_text(bytes)),
+        Format::Obj => obj::parse_obj(name, &text::decode_text(bytes)),
+        Format::VertTri => Err(Error::invalid(format!(
+            "{}: a TOSCA .vert/.tri pair is two files; parse it with parse_vert_tri",
+            name.display()
+        ))),
+    }
+}
+
+/// Parses the bytes of a TOSCA `.vert` file and its `.tri` file (named
+/// `name.vert` and `name.tri` in messages) without touching the file system.
+pub fn parse_vert_tri(vert: &[u8], tri: &[u8], name: &Path) -> Result<RawMesh> {
+    tosca::parse_vert_tri(
+        &name.with_extension("vert"),
+        &text::decode_text(vert),
+        &name.with_extension("tri"),
+        &text::decode_text(tri),
+    )
+}
+
 /// Reads and validates a mesh (indices in range, finite coordinates); errors
 /// name the file.
 pub fn read_mesh(path: &Path) -> Result<Mesh> {

@@ -17,11 +17,15 @@ use crate::mesh::{Mesh, RawMesh};
 use crate::{Error, Result};
 
 pub(super) fn read_obj(path: &Path) -> Result<RawMesh> {
-    let text = read_text(path)?;
+    parse_obj(path, &read_text(path)?)
+}
+
+/// Parses the text of an OBJ file; `path` only names it in messages.
+pub(super) fn parse_obj(path: &Path, text: &str) -> Result<RawMesh> {
     let mut vertices = Vec::new();
     let mut faces = Vec::new();
     let mut polygon = Vec::new();
-    for (l, s) in content_lines(&text) {
+    for (l, s) in content_lines(text) {
         let mut toks = s.split_ascii_whitespace();
         match toks.next() {
             Some("v") => vertices.push(parse_point(path, l, toks, "vertex")?),

@@ -16,8 +16,12 @@ use crate::mesh::{Mesh, RawMesh};
 use crate::{Error, Result};
 
 pub(super) fn read_off(path: &Path) -> Result<RawMesh> {
-    let text = read_text(path)?;
-    let mut lines = content_lines(&text);
+    parse_off(path, &read_text(path)?)
+}
+
+/// Parses the text of an OFF file; `path` only names it in messages.
+pub(super) fn parse_off(path: &Path, text: &str) -> Result<RawMesh> {
+    let mut lines = content_lines(text);
     let (kline, first) = lines
         .next()
         .ok_or_else(|| Error::parse(path, "header", "empty file: expected 'OFF'"))?;

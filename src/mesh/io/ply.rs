@@ -5,7 +5,10 @@
 //! line (ascii) or element position (binary) instead of panicking, and caps
 //! the capacity it reserves from header counts (65 536 items), so a header that
 //! announces 4e9 vertices fails at the end of the real data instead of
-//! allocating 4e9 slots. We read through small custom element types
+//! allocating 4e9 slots. On top of that, binary files are checked against
+//! their size before any element is read (each element needs at least the
+//! bytes of its scalars and list counts), and binary elements without
+//! properties are skipped, not iterated. We read through small custom element types
 //! ([`PlyVertex`], [`PlyFace`]) rather than its hash-map elements, and every
 //! error it returns is wrapped to name the file and the element being read.
 //!
@@ -16,12 +19,12 @@
 //! fan-triangulated; a negative index or a face with fewer than three corners
 //! is an error; an index beyond the vertex count is kept for the defect report.
 
-use std::fs::File;
-use std::io::BufReader;
 use std::path::Path;
 
 use ply_rs_bw::parser::{Parser, Reader};
-use ply_rs_bw::ply::{Property, PropertyAccess, PropertyAccessResult, PropertyType, ScalarType};
+use ply_rs_bw::ply::{
+    Encoding, Header, Property, PropertyAccess, PropertyAccessResult, PropertyType, ScalarType,
+};
 
 use super::text::{capped, fan};
 use crate::mesh::RawMesh;
@@ -112,9 +115,55 @@ fn is_integer(t: &ScalarType) -> bool {
     !matches!(t, ScalarType::Float | ScalarType::Double)
 }
 
+fn scalar_size(t: &ScalarType) -> u64 {
+    match t {
+        ScalarType::Char | ScalarType::UChar => 1,
+        ScalarType::Short | ScalarType::UShort => 2,
+        ScalarType::Int | ScalarType::UInt | ScalarType::Float => 4,
+        ScalarType::Double => 8,
+    }
+}
+
+/// Binary encodings: checks that the file is large enough for the element
+/// counts of its header, each element taking at least the bytes of its
+/// scalars and list counts. A header announcing 4e9 vertices in a small
+/// file is refused before any element is read (the reader would otherwise
+/// loop over, and collect, elements that cannot exist; elements without
+/// properties would make it spin through the whole announced count).
+fn check_binary_sizes(path: &Path, header: &Header, file_len: usize) -> Result<()> {
+    if header.encoding == Encoding::Ascii {
+        return Ok(()); // every element is a line: reading stops at the end of the file
+    }
+    let mut total: u64 = 0;
+    for def in header.elements.values() {
+        let size: u64 = def
+            .properties
+            .values()
+            .map(|p| match &p.data_type {
+                PropertyType::Scalar(t) => scalar_size(t),
+                PropertyType::List(count, _) => scalar_size(count),
+            })
+            .sum();
+        let need = (def.count as u64).saturating_mul(size);
+        total = total.saturating_add(need);
+        if total > file_len as u64 {
+            return Err(Error::parse(
+                path,
+                "header",
+                format!(
+                    "element '{}' announces {} items of at least {size} bytes each, but the \
+                     file has only {file_len} bytes",
+                    def.name, def.count
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// `ply-rs-bw` says "Line 3: Couldn't parse line."; append the text of that
 /// header line so the user sees what was wrong.
-fn quote_header_line(path: &Path, message: &str) -> String {
+fn quote_header_line(bytes: &[u8], message: &str) -> String {
     let line_no = message
         .strip_prefix("Line ")
         .and_then(|r| r.split(':').next())
@@ -122,12 +171,8 @@ fn quote_header_line(path: &Path, message: &str) -> String {
     let Some(n) = line_no.filter(|&n| n >= 1) else {
         return tidy(message);
     };
-    let mut head = Vec::new();
-    if let Ok(f) = File::open(path) {
-        use std::io::Read;
-        let _ = f.take(1 << 16).read_to_end(&mut head);
-    }
-    let text = String::from_utf8_lossy(&head);
+    let head = &bytes[..bytes.len().min(1 << 16)];
+    let text = String::from_utf8_lossy(head);
     match text.lines().nth(n - 1) {
         Some(l) => {
             let l: String = l.chars().take(80).collect();
@@ -151,11 +196,16 @@ fn tidy(message: &str) -> String {
 }
 
 pub(super) fn read_ply(path: &Path) -> Result<RawMesh> {
-    let file = File::open(path).map_err(|e| Error::io(path, e))?;
-    let mut reader = Reader::new(BufReader::new(file));
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    parse_ply(path, &bytes)
+}
+
+/// Parses the bytes of a PLY file; `path` only names it in messages.
+pub(super) fn parse_ply(path: &Path, bytes: &[u8]) -> Result<RawMesh> {
+    let mut reader = Reader::new(bytes);
     let header = Parser::<Skip>::new()
         .read_header(&mut reader)
-        .map_err(|e| Error::parse(path, "header", quote_header_line(path, &e.to_string())))?;
+        .map_err(|e| Error::parse(path, "header", quote_header_line(bytes, &e.to_string())))?;
 
     // Check the header before reading any data.
     let vdef = header
@@ -209,8 +259,13 @@ pub(super) fn read_ply(path: &Path) -> Result<RawMesh> {
         }
     }
 
+    check_binary_sizes(path, &header, bytes.len())?;
+
     let mut raw = RawMesh::default();
     for def in header.elements.values() {
+        if def.properties.is_empty() && header.encoding != Encoding::Ascii {
+            continue; // no bytes to read, however many items are announced
+        }
         let wrap = |e: ply_rs_bw::parser::ParseError| {
             Error::parse(
                 path,

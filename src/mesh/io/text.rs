@@ -10,10 +10,13 @@ use crate::{Error, Point, Result};
 /// whole-file failure.
 pub(super) fn read_text(path: &Path) -> Result<String> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    Ok(match String::from_utf8(bytes) {
-        Ok(s) => s,
-        Err(e) => String::from_utf8_lossy(e.as_bytes()).into_owned(),
-    })
+    Ok(decode_text(&bytes))
+}
+
+/// The text of a file's bytes, invalid UTF-8 replaced by U+FFFD (see
+/// [`read_text`]).
+pub(super) fn decode_text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
 }
 
 /// Non-empty lines with `#` comments removed, with their one-based line

@@ -32,28 +32,37 @@ pub(super) fn read_vert_tri(path: &Path) -> Result<RawMesh> {
             ));
         }
     }
-    let text = read_text(&vert)?;
+    parse_vert_tri(&vert, &read_text(&vert)?, &tri, &read_text(&tri)?)
+}
+
+/// Parses the texts of a `.vert` and a `.tri` file; the paths only name them
+/// in messages.
+pub(super) fn parse_vert_tri(
+    vert: &Path,
+    vert_text: &str,
+    tri: &Path,
+    tri_text: &str,
+) -> Result<RawMesh> {
     let mut vertices = Vec::new();
-    for (l, s) in content_lines(&text) {
+    for (l, s) in content_lines(vert_text) {
         let mut toks = s.split_ascii_whitespace();
         let what = format!("vertex {}", vertices.len());
-        vertices.push(parse_point(&vert, l, toks.by_ref(), &what)?);
+        vertices.push(parse_point(vert, l, toks.by_ref(), &what)?);
         if toks.next().is_some() {
             return Err(Error::parse(
-                &vert,
+                vert,
                 line_loc(l),
                 format!("{what}: more than 3 numbers on the line"),
             ));
         }
     }
-    let text = read_text(&tri)?;
     let mut faces = Vec::new();
-    for (l, s) in content_lines(&text) {
+    for (l, s) in content_lines(tri_text) {
         let what = format!("face {}", faces.len());
         let toks: Vec<&str> = s.split_ascii_whitespace().collect();
         if toks.len() != 3 {
             return Err(Error::parse(
-                &tri,
+                tri,
                 line_loc(l),
                 format!("{what}: expected 3 vertex indices, found {}", toks.len()),
             ));
@@ -61,7 +70,7 @@ pub(super) fn read_vert_tri(path: &Path) -> Result<RawMesh> {
         let mut f = [0usize; 3];
         for (slot, tok) in f.iter_mut().zip(&toks) {
             // MATLAB writes integers as e.g. "12" but sometimes "12.0000".
-            let idx = match parse_count(&tri, l, tok, &what) {
+            let idx = match parse_count(tri, l, tok, &what) {
                 Ok(i) => i,
                 Err(e) => match tok.parse::<f64>() {
                     Ok(x) if x.fract() == 0.0 && (0.0..1e15).contains(&x) => x as usize,
@@ -70,7 +79,7 @@ pub(super) fn read_vert_tri(path: &Path) -> Result<RawMesh> {
             };
             if idx == 0 {
                 return Err(Error::parse(
-                    &tri,
+                    tri,
                     line_loc(l),
                     format!("{what}: index 0, but .tri indices are one-based"),
                 ));

@@ -1,0 +1,16 @@
+//! PLY reader (any encoding: the header decides) on arbitrary bytes.
+#![no_main]
+
+use std::path::Path;
+
+use deformlab::mesh::io::{parse_raw, Format};
+use deformlab::mesh::validate::DefectReport;
+use deformlab::mesh::Mesh;
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    if let Ok(raw) = parse_raw(Format::Ply, data, Path::new("fuzz.ply")) {
+        let _ = DefectReport::of(&raw).summary();
+        let _ = Mesh::try_from(raw);
+    }
+});

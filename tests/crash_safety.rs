@@ -1,0 +1,341 @@
+//! Crash safety of `deformlab run`: a small suite (a BDT and an FBT config,
+//! 4 cases × 2 methods each, synthetic data) is killed with SIGKILL at 20
+//! random (seeded) moments and restarted each time, then run to the end.
+//! Checked after every kill: every stored result is complete JSON and no
+//! result stored before was lost or rewritten. At the end: every case ×
+//! method is stored exactly once, each stored result equals the one of an
+//! uninterrupted run (timing cells aside), and cases.csv, curves.csv and
+//! summary.csv equal the uninterrupted run's apart from the `seconds_*`
+//! columns (rows of `seconds_*` metrics in summary.csv).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+const BIN: &str = env!("CARGO_BIN_EXE_deformlab");
+
+const BDT: &str = r#"
+name = "crash-bdt"
+seed = 5
+
+[dataset.synthetic]
+subjects = 3
+poses = 3
+resolution = 1
+
+[cases]
+sources = [0]
+per_pose = true
+
+[defaults]
+mode = "fast"
+n_candidates = 10
+error_norm = "rms"
+epsilon = 0.0
+max_keypoints = 3
+max_swap_passes = 0
+
+[[methods]]
+name = "auto"
+kind = "bdt"
+
+[[methods]]
+name = "random"
+kind = "bdt_random"
+count = 4
+
+[outputs]
+render_poses = 1
+"#;
+
+const FBT: &str = r#"
+name = "crash-fbt"
+seed = 7
+
+[dataset.synthetic]
+subjects = 1
+poses = 4
+tail = true
+spread = 0.15
+resolution = 1
+
+[cases]
+targets = []
+include_self = true
+per_pose = true
+reference_pose = "rest"
+
+[[methods]]
+name = "q2"
+kind = "fbt"
+fbt = { task = "completion", q = 2, nicp = false }
+
+[[methods]]
+name = "q2-nicp"
+kind = "fbt"
+fbt = { task = "completion", q = 2 }
+
+[outputs]
+render_cases = 1
+render_poses = 1
+"#;
+
+const EXPERIMENTS: [&str; 2] = ["crash-bdt", "crash-fbt"];
+/// Case × method results per experiment.
+const N_RESULTS: usize = 4 * 2;
+const KILLS: usize = 20;
+
+fn write_configs(dir: &Path) -> Vec<PathBuf> {
+    std::fs::create_dir_all(dir).unwrap();
+    [("bdt.toml", BDT), ("fbt.toml", FBT)]
+        .iter()
+        .map(|(name, text)| {
+            let p = dir.join(name);
+            std::fs::write(&p, text).unwrap();
+            p
+        })
+        .collect()
+}
+
+fn run_args(configs: &[PathBuf], out: &Path) -> Vec<String> {
+    let mut a = vec!["run".to_string()];
+    a.extend(configs.iter().map(|c| c.display().to_string()));
+    for s in ["--out", &out.display().to_string(), "--threads", "2"] {
+        a.push(s.to_string());
+    }
+    a.push("--no-plots".into());
+    a.push("--quiet".into());
+    a
+}
+
+fn command(args: &[String]) -> Command {
+    let mut c = Command::new(BIN);
+    c.args(args).env_remove("DEFORMLAB_RUN_MAX_NEW");
+    c
+}
+
+fn run_to_end(args: &[String]) {
+    let o = command(args).output().expect("spawn deformlab");
+    assert!(
+        o.status.success(),
+        "deformlab {args:?} failed:\n{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// Every file under `dir/cases/` (relative path → bytes), temporaries
+/// included (they start with '.').
+fn case_files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let Ok(rd) = std::fs::read_dir(dir.join("cases")) else {
+        return out;
+    };
+    for e in rd {
+        let case = e.unwrap().path();
+        for f in std::fs::read_dir(&case).unwrap() {
+            let p = f.unwrap().path();
+            let rel = p.strip_prefix(dir).unwrap().display().to_string();
+            // A file can vanish between listing and reading only if it is a
+            // temporary; those are not results.
+            if let Ok(bytes) = std::fs::read(&p) {
+                out.insert(rel, bytes);
+            }
+        }
+    }
+    out
+}
+
+fn is_result(rel: &str) -> bool {
+    let name = rel.rsplit('/').next().unwrap();
+    name.ends_with(".json") && !name.starts_with('.')
+}
+
+/// A stored result parsed, with the timing cells removed.
+fn result_without_timing(rel: &str, bytes: &[u8]) -> serde_json::Value {
+    let mut v: serde_json::Value = serde_json::from_slice(bytes)
+        .unwrap_or_else(|e| panic!("{rel} is not complete JSON ({e}): {bytes:?}"));
+    let cells = v["cells"]
+        .as_object_mut()
+        .unwrap_or_else(|| panic!("{rel} has no cells"));
+    assert!(cells.get("status").is_some_and(|s| s.is_string()), "{rel}");
+    cells.retain(|k, _| !k.starts_with("seconds_"));
+    v
+}
+
+/// A CSV with the columns named `seconds_*` removed, and (for summary.csv)
+/// the rows whose `metric` is a `seconds_*` column.
+fn csv_without_timing(path: &Path) -> Vec<Vec<String>> {
+    let mut rdr = csv::Reader::from_path(path).unwrap();
+    let header: Vec<String> = rdr.headers().unwrap().iter().map(String::from).collect();
+    let keep: Vec<usize> = (0..header.len())
+        .filter(|&i| !header[i].starts_with("seconds_"))
+        .collect();
+    let metric = header.iter().position(|h| h == "metric");
+    let mut rows = vec![keep.iter().map(|&i| header[i].clone()).collect::<Vec<_>>()];
+    for rec in rdr.records() {
+        let rec = rec.unwrap();
+        if metric.is_some_and(|m| rec[m].starts_with("seconds_")) {
+            continue;
+        }
+        rows.push(keep.iter().map(|&i| rec[i].to_string()).collect());
+    }
+    rows
+}
+
+#[test]
+fn sigkill_at_20_random_moments_loses_nothing() {
+    let t0 = Instant::now();
+    let tmp = tempfile::tempdir().unwrap();
+    let configs = write_configs(&tmp.path().join("configs"));
+
+    // Uninterrupted reference run; its duration scales the kill moments.
+    let ref_out = tmp.path().join("reference");
+    let start = Instant::now();
+    run_to_end(&run_args(&configs, &ref_out));
+    let t_ref = start.elapsed();
+    let reference: Vec<BTreeMap<String, Vec<u8>>> = EXPERIMENTS
+        .iter()
+        .map(|e| case_files(&ref_out.join(e)))
+        .collect();
+    for (e, files) in EXPERIMENTS.iter().zip(&reference) {
+        assert_eq!(files.len(), N_RESULTS, "{e}: {:?}", files.keys());
+    }
+
+    // A resumed run of a finished suite (start-up, tables, manifest).
+    let start = Instant::now();
+    run_to_end(&run_args(&configs, &ref_out));
+    let t_noop = start.elapsed().as_secs_f64();
+
+    // Killed runs: each is killed at a moment drawn uniformly from
+    // [0, t_noop + 0.6 t_ref × share of results still missing) after its
+    // start, so the kills fall at start-up (dataset, config binding, render
+    // meshes), in the middle of cases and between stored results. Measured
+    // here (seed 20): every kill hit a running process; 10 of 16 results
+    // stored after the first kill, 12 after the last, 4 left to the final
+    // run.
+    let out = tmp.path().join("killed");
+    let args = run_args(&configs, &out);
+    let mut rng = ChaCha8Rng::seed_from_u64(20);
+    let mut seen: Vec<BTreeMap<String, Vec<u8>>> = vec![BTreeMap::new(); EXPERIMENTS.len()];
+    let mut interrupted = 0;
+    let mut progress = Vec::new();
+    let total = (EXPERIMENTS.len() * N_RESULTS) as f64;
+    for kill in 0..KILLS {
+        let missing = 1.0 - progress.last().copied().unwrap_or(0) as f64 / total;
+        let window = t_noop + 0.6 * t_ref.as_secs_f64() * missing;
+        let delay = Duration::from_secs_f64(rng.random::<f64>() * window);
+        let mut child = command(&args)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("spawn deformlab");
+        std::thread::sleep(delay);
+        if child.try_wait().unwrap().is_none() {
+            interrupted += 1;
+        }
+        child.kill().unwrap(); // SIGKILL on Unix; Ok if it already exited
+        let status = child.wait().unwrap();
+        assert!(
+            status.code().is_none_or(|c| c == 0),
+            "kill {kill}: run failed on its own with {status}"
+        );
+        let mut stored = 0;
+        for (k, e) in EXPERIMENTS.iter().enumerate() {
+            let now = case_files(&out.join(e));
+            // Nothing stored before was lost or rewritten.
+            for (rel, bytes) in &seen[k] {
+                assert_eq!(
+                    now.get(rel),
+                    Some(bytes),
+                    "kill {kill}: {e}/{rel} was lost or rewritten"
+                );
+            }
+            // Every result is complete and equals the uninterrupted run's.
+            for (rel, bytes) in now.iter().filter(|(r, _)| is_result(r)) {
+                let want = reference[k]
+                    .get(rel)
+                    .unwrap_or_else(|| panic!("kill {kill}: {e}/{rel} not in the reference"));
+                assert_eq!(
+                    result_without_timing(rel, bytes),
+                    result_without_timing(rel, want),
+                    "kill {kill}: {e}/{rel} differs from the uninterrupted run"
+                );
+                stored += 1;
+            }
+            seen[k] = now.into_iter().filter(|(r, _)| is_result(r)).collect();
+        }
+        progress.push(stored);
+    }
+    eprintln!(
+        "reference run {:.1} s, resumed finished run {t_noop:.1} s; {interrupted} of {KILLS} \
+         kills interrupted a running process; results stored after each kill: {progress:?}",
+        t_ref.as_secs_f64()
+    );
+    assert!(
+        interrupted >= KILLS / 2,
+        "only {interrupted} of {KILLS} kills hit a running process"
+    );
+    assert!(
+        progress.first() < progress.last() || progress.last() == Some(&(2 * N_RESULTS)),
+        "no progress across restarts: {progress:?}"
+    );
+
+    // Final, uninterrupted resume.
+    run_to_end(&args);
+    for (k, e) in EXPERIMENTS.iter().enumerate() {
+        let dir = out.join(e);
+        let files = case_files(&dir);
+        // Exactly one file per case × method, no temporaries left.
+        assert_eq!(
+            files.keys().collect::<Vec<_>>(),
+            reference[k].keys().collect::<Vec<_>>(),
+            "{e}: stored files differ from the uninterrupted run's"
+        );
+        for (rel, bytes) in &files {
+            assert_eq!(
+                result_without_timing(rel, bytes),
+                result_without_timing(rel, &reference[k][rel]),
+                "{e}/{rel}"
+            );
+        }
+        for (rel, bytes) in &seen[k] {
+            assert_eq!(
+                files.get(rel),
+                Some(bytes),
+                "{e}/{rel} rewritten by the last run"
+            );
+        }
+        let ref_dir = ref_out.join(e);
+        for table in ["cases.csv", "summary.csv", "curves.csv"] {
+            let got = csv_without_timing(&dir.join(table));
+            let want = csv_without_timing(&ref_dir.join(table));
+            assert_eq!(got, want, "{e}/{table} differs from the uninterrupted run");
+        }
+        // No (case, method) row twice in cases.csv, and one per result.
+        let rows = csv_without_timing(&dir.join("cases.csv"));
+        let (c, m) = (
+            rows[0].iter().position(|h| h == "case_id").unwrap(),
+            rows[0].iter().position(|h| h == "method").unwrap(),
+        );
+        let mut keys: Vec<(String, String)> = rows[1..]
+            .iter()
+            .map(|r| (r[c].clone(), r[m].clone()))
+            .collect();
+        keys.sort();
+        keys.dedup();
+        assert_eq!(keys.len(), N_RESULTS, "{e}: duplicated or missing rows");
+        assert_eq!(rows.len(), 1 + N_RESULTS);
+        assert!(rows[1..].iter().all(|r| r.contains(&"ok".to_string())));
+        // The manifest is complete JSON and counts every result.
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("manifest.json")).unwrap())
+                .unwrap();
+        assert_eq!(m["results_stored"], N_RESULTS, "{e}");
+    }
+    eprintln!("crash safety test: {:.1} s", t0.elapsed().as_secs_f64());
+}
