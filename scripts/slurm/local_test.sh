@@ -14,7 +14,8 @@
 # Usage (as root, from the repository root; takes a few minutes):
 #   scripts/slurm/local_test.sh [SHARDS] [CONFIG...]
 # Defaults: 4 shards, experiments/*.toml. Work folder: $WORK (default
-# /tmp/deformlab-slurm-test, wiped first). STOP=1 stops the daemons at the
+# /tmp/deformlab-slurm-test, wiped first). DEFORMLAB=PATH uses that binary
+# instead of building target/release/deformlab. STOP=1 stops the daemons at the
 # end (default: they keep running for inspection; rerunning reuses them).
 set -euo pipefail
 
@@ -98,8 +99,12 @@ say "$(sbatch --version); node state: $(sinfo -h -n localhost -o %T)"
 [[ "$(sinfo -h -n localhost -o %T)" == idle* ]] || { echo "node not idle" >&2; sinfo >&2; exit 1; }
 
 # 3. The job array and its merge job.
-cargo build --release >&2
-bin="$root/target/release/deformlab"
+if [[ -n "${DEFORMLAB:-}" ]]; then
+    bin="$(realpath "$DEFORMLAB")"      # a given binary (e.g. a copy, while target/ is rebuilt)
+else
+    cargo build --release >&2
+    bin="$root/target/release/deformlab"
+fi
 rm -rf "$work"; mkdir -p "$work"
 export DEFORMLAB="$bin" RESULTS="$work/merged" SHARDS="$work/shards" CPUS=1
 out="$(scripts/slurm/array.sh "$n" "${configs[@]}")"
@@ -124,12 +129,26 @@ say "unsharded run"
 
 # Drops the columns whose header starts with seconds_ (timings), and, in
 # summary.csv, the rows describing them (column `metric` = seconds_*).
+# Fields are split the CSV way (quoted fields may hold commas).
 strip() {
-    awk -F, 'NR == 1 { for (i = 1; i <= NF; i++) drop[i] = ($i ~ /^seconds_/); hdr = $0
-                       for (i = 1; i <= NF; i++) if ($i == "metric") col = i }
-             { if (NR > 1 && col && $col ~ /^seconds_/) next
-               line = ""; for (i = 1; i <= NF; i++) if (!drop[i]) line = line (line == "" ? "" : ",") $i
-               print line }' "$1"
+    awk 'function split_csv(line, f,    n, i, c, q, cur) {
+             n = 0; cur = ""; q = 0
+             for (i = 1; i <= length(line); i++) {
+                 c = substr(line, i, 1)
+                 if (q) { cur = cur c; if (c == "\"") q = 0 }
+                 else if (c == "\"") { cur = cur c; q = 1 }
+                 else if (c == ",") { f[++n] = cur; cur = "" }
+                 else cur = cur c
+             }
+             f[++n] = cur
+             return n
+         }
+         { nf = split_csv($0, f) }
+         NR == 1 { for (i = 1; i <= nf; i++) { drop[i] = (f[i] ~ /^seconds_/); if (f[i] == "metric") col = i } }
+         { if (NR > 1 && col && f[col] ~ /^seconds_/) next
+           line = ""; sep = ""
+           for (i = 1; i <= nf; i++) if (!drop[i]) { line = line sep f[i]; sep = "," }
+           print line }' "$1"
 }
 status=$sacct_ok
 checked=0
@@ -149,7 +168,7 @@ for cfg in "${configs[@]}"; do
         fi
     done
     rows="$(($(wc -l <"$work/merged/$name/cases.csv") - 1))"
-    say "$name: $rows case × method rows, merged == unsharded"
+    say "$name: $rows case × method rows compared"
 done
 if [[ "${STOP:-0}" == 1 ]]; then
     scontrol shutdown >/dev/null 2>&1 || true

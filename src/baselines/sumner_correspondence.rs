@@ -58,6 +58,7 @@ use nalgebra::DMatrix;
 
 use super::sumner::{face_adjacency, inverse_frames, TriangleCorrespondence};
 use crate::mesh::Mesh;
+use crate::ops::closest_point_on_triangle;
 use crate::ops::{face_normals, vertex_faces, vertex_normals};
 use crate::solve::{sparse_from_triplets, SparseCholesky};
 use crate::{Error, Mat3, Point, Result, Vec3};
@@ -203,52 +204,6 @@ pub fn check_markers(markers: &[(usize, usize)], n_source: usize, n_target: usiz
     Ok(())
 }
 
-/// Closest point to `p` on triangle `(a, b, c)` (regions of the triangle's
-/// Voronoi diagram: vertices, edges, interior).
-fn closest_on_triangle(p: &Point, a: &Point, b: &Point, c: &Point) -> Point {
-    let ab = b - a;
-    let ac = c - a;
-    let ap = p - a;
-    let d1 = ab.dot(&ap);
-    let d2 = ac.dot(&ap);
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return *a;
-    }
-    let bp = p - b;
-    let d3 = ab.dot(&bp);
-    let d4 = ac.dot(&bp);
-    if d3 >= 0.0 && d4 <= d3 {
-        return *b;
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let t = d1 / (d1 - d3);
-        return a + ab * t;
-    }
-    let cp = p - c;
-    let d5 = ab.dot(&cp);
-    let d6 = ac.dot(&cp);
-    if d6 >= 0.0 && d5 <= d6 {
-        return *c;
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let t = d2 / (d2 - d6);
-        return a + ac * t;
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        let t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        return b + (c - b) * t;
-    }
-    let denom = va + vb + vc;
-    if denom.abs() < f64::MIN_POSITIVE {
-        return *a;
-    }
-    let (v, w) = (vb / denom, vc / denom);
-    a + ab * v + ac * w
-}
-
 fn kd_tree(points: &[Point]) -> Result<ImmutableKdTree<f64, 3>> {
     let pts: Vec<[f64; 3]> = points.iter().map(|p| [p.x, p.y, p.z]).collect();
     ImmutableKdTree::<f64, 3>::new_from_slice(&pts)
@@ -293,7 +248,7 @@ impl<'a> ClosestValid<'a> {
                     continue;
                 }
                 let [a, b, c] = tf[f];
-                let q = closest_on_triangle(p, &tv[a], &tv[b], &tv[c]);
+                let q = closest_point_on_triangle(p, &tv[a], &tv[b], &tv[c]);
                 let d = (q - p).norm_squared();
                 if best.is_none_or(|(bd, _)| d < bd) {
                     best = Some((d, q));
@@ -629,7 +584,7 @@ mod tests {
             (Point::new(-1.0, 0.5, 0.0), Point::new(0.0, 0.5, 0.0)),
         ];
         for (p, want) in cases {
-            let got = closest_on_triangle(&p, &a, &b, &c);
+            let got = closest_point_on_triangle(&p, &a, &b, &c);
             assert!((got - want).norm() < 1e-12, "{p} → {got}, want {want}");
         }
     }

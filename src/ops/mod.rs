@@ -38,4 +38,4 @@ pub use rotation::{polar_decomposition, rotation_exp, rotation_log, scale_shear_
 pub use sampling::{
     farthest_point_sampling, farthest_point_sampling_from, farthest_point_sampling_in, FpsMetric,
 };
-pub use topology::{edges, face_areas, total_area};
+pub use topology::{closest_point_on_triangle, edges, face_areas, total_area};
