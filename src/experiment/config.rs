@@ -1087,16 +1087,21 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
             not_for("target_noise", pipe.target_noise.is_some())?;
             not_for("target_noise_seed", pipe.target_noise_seed.is_some())?;
         }
+        // Keys of the simulated users and of clustering, which the FBT and
+        // baseline kinds do not take.
+        let no_bdt_user_keys = || -> Result<()> {
+            not_for("count", m.count.is_some())?;
+            not_for("pool", m.pool.is_some())?;
+            not_for("strategy", m.strategy.is_some())?;
+            not_for("jitter", m.jitter.is_some())?;
+            not_for("handles", m.handles.is_some())?;
+            not_for("features", m.features.is_some())?;
+            not_for("examples", m.examples.is_some())?;
+            not_for("n_clusters", m.n_clusters.is_some())
+        };
         let method = match m.kind {
             MethodKind::Fbt => {
-                not_for("count", m.count.is_some())?;
-                not_for("pool", m.pool.is_some())?;
-                not_for("strategy", m.strategy.is_some())?;
-                not_for("jitter", m.jitter.is_some())?;
-                not_for("handles", m.handles.is_some())?;
-                not_for("features", m.features.is_some())?;
-                not_for("examples", m.examples.is_some())?;
-                not_for("n_clusters", m.n_clusters.is_some())?;
+                no_bdt_user_keys()?;
                 let spec = m.fbt.clone().ok_or_else(|| {
                     bad(
                         path,
@@ -1113,14 +1118,7 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
                 }
             }
             MethodKind::Sumner | MethodKind::SumnerOracle | MethodKind::Cage => {
-                not_for("count", m.count.is_some())?;
-                not_for("pool", m.pool.is_some())?;
-                not_for("strategy", m.strategy.is_some())?;
-                not_for("jitter", m.jitter.is_some())?;
-                not_for("handles", m.handles.is_some())?;
-                not_for("features", m.features.is_some())?;
-                not_for("examples", m.examples.is_some())?;
-                not_for("n_clusters", m.n_clusters.is_some())?;
+                no_bdt_user_keys()?;
                 match m.kind {
                     MethodKind::Sumner => Method::Sumner { pipeline },
                     MethodKind::SumnerOracle => Method::SumnerOracle { pipeline },
@@ -1128,14 +1126,7 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
                 }
             }
             MethodKind::Bdt => {
-                not_for("count", m.count.is_some())?;
-                not_for("pool", m.pool.is_some())?;
-                not_for("strategy", m.strategy.is_some())?;
-                not_for("jitter", m.jitter.is_some())?;
-                not_for("handles", m.handles.is_some())?;
-                not_for("features", m.features.is_some())?;
-                not_for("examples", m.examples.is_some())?;
-                not_for("n_clusters", m.n_clusters.is_some())?;
+                no_bdt_user_keys()?;
                 Method::Bdt { pipeline }
             }
             MethodKind::BdtRandom => {
