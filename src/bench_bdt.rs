@@ -44,10 +44,7 @@ macro_rules! emit {
     }};
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_unstable_by(f64::total_cmp);
-    v[v.len() / 2]
-}
+use crate::register::metrics::median;
 
 /// Source and up to three deformed sources (FAUST sample or synthetic).
 fn bench_meshes(out: &mut String) -> Result<(Mesh, Vec<Mesh>)> {

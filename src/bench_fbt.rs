@@ -31,10 +31,7 @@ use crate::register::{
 };
 use crate::{Mesh, Result};
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_unstable_by(f64::total_cmp);
-    v[v.len() / 2]
-}
+use crate::register::metrics::median;
 
 fn time<T>(reps: usize, mut f: impl FnMut() -> Result<T>) -> Result<(f64, T)> {
     let mut times = Vec::with_capacity(reps);

@@ -42,10 +42,7 @@ pub const LIBIGL_MEASURED: &str = "libigl 2.6.3 (Python wheel) igl.bbw with its 
      active-set iterations per handle. Its weights differ from PerHandle's (before \
      normalisation) by at most 3.6e-6 (tol 1e-8) / 2.7e-7 (tol 1e-11)";
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_unstable_by(f64::total_cmp);
-    v[v.len() / 2]
-}
+use crate::register::metrics::median;
 
 /// Median wall time (s) of `f` over `reps` runs and the last result.
 fn time<T>(reps: usize, mut f: impl FnMut() -> Result<T>) -> Result<(f64, T)> {

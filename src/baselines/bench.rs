@@ -21,10 +21,7 @@ use crate::mesh::io::read_mesh;
 use crate::ops::{farthest_point_sampling, FpsMetric};
 use crate::{Error, Mesh, Result};
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_unstable_by(f64::total_cmp);
-    v[v.len() / 2]
-}
+use crate::register::metrics::median;
 
 struct Case {
     name: String,

@@ -163,13 +163,7 @@ pub fn run(
     Ok(())
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_unstable_by(f64::total_cmp);
-    v[v.len() / 2]
-}
+use crate::register::metrics::median;
 
 /// Timing of the baselines on the cases of `experiments/fig14.toml` (the
 /// config is compiled in): per case, the automatic key points of its

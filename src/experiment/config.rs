@@ -941,11 +941,11 @@ fn check_dataset(c: &LoadedConfig) -> Result<()> {
                 format!("expected 1..={n_poses}"),
             ));
         }
-        if !(1..=3).contains(&fs.resolution) {
+        if !(1..=5).contains(&fs.resolution) {
             return Err(bad(
                 &c.path,
                 "dataset.synthetic.resolution",
-                "expected 1..=3",
+                "expected 1..=5",
             ));
         }
         if !(0.0..=0.4).contains(&fs.spread) {

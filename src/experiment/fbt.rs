@@ -427,11 +427,6 @@ fn load_case(col: &Collection, case: &Case, q: usize, seed: u64) -> Result<FbtCa
     })
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_unstable_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
 fn save(dir: &std::path::Path, name: &str, mesh: &Mesh) -> Result<()> {
     let path = dir.join(name);
     if path.exists() {
@@ -500,6 +495,10 @@ fn set_distortion(out: &mut CaseResult, d: &[f64], suffix: &str) {
     out.set(
         &format!("rel_distortion_mean{suffix}"),
         num(metrics::mean(d)),
+    );
+    out.set(
+        &format!("rel_distortion_median{suffix}"),
+        num(metrics::median(d.to_vec())),
     );
     out.set(&format!("rel_distortion_max{suffix}"), num(metrics::max(d)));
 }
@@ -616,8 +615,8 @@ fn timing(fc: &FbtCase, spec: &FbtSpec, seed: u64, out: &mut CaseResult) -> Resu
     out.set("n_constraints", rows.len().to_string());
     out.set("seconds_precompute", secs(t_build + t_fact));
     out.set("seconds_factorise", secs(t_fact));
-    out.set("seconds_iteration", secs(median(it)));
-    out.set("seconds_solve", secs(median(full)));
+    out.set("seconds_iteration", secs(metrics::median(it)));
+    out.set("seconds_solve", secs(metrics::median(full)));
     out.set("iterations", reg.iterations.to_string());
     let d = metrics::relative_distortion(&reg.positions, fc.target.vertices(), area)?;
     set_distortion(out, &d, "");

@@ -76,6 +76,10 @@ pub fn column_label(c: &str) -> String {
         "rel_distortion_mean" => "mean relative distortion (√area units)".into(),
         "rel_distortion_max" => "max relative distortion (√area units)".into(),
         "rel_distortion_mean_init" => "mean relative distortion before NICP (√area units)".into(),
+        "rel_distortion_median" => "median relative distortion (√area units)".into(),
+        "rel_distortion_median_init" => {
+            "median relative distortion before NICP (√area units)".into()
+        }
         "corr_error_mean" => "mean geodesic correspondence error (√area units)".into(),
         "alpha" => "recovered global scale α".into(),
         "alpha_true" => "applied scale".into(),
