@@ -12,7 +12,7 @@ use deformlab::mesh::io::{read_mesh, write_ply};
 use deformlab::mesh::Mesh;
 use deformlab::ops::geodesic::EdgeGraph;
 use deformlab::ops::{farthest_point_sampling, total_area, FpsMetric};
-use deformlab::transfer::{auto_correspondence, perturb_keypoints, AutoOptions};
+use deformlab::transfer::{auto_correspondence, coarse_align, perturb_keypoints, AutoOptions};
 use deformlab::{Mat3, Point, Vec3};
 use nalgebra::Rotation3;
 
@@ -241,4 +241,71 @@ fn config_keys_are_validated_and_named() {
     .unwrap_err()
     .to_string();
     assert!(e.contains("dataset.synthetic.remesh"), "{e}");
+}
+
+/// Landmarks join the coarse alignment: three or more add the landmark fit
+/// as a 25th candidate, the chosen motion carries each landmark close to its
+/// partner, and on a pair the principal axes already solve it agrees with
+/// the alignment found without landmarks.
+#[test]
+fn landmarks_join_the_coarse_alignment() {
+    let (a, b) = pair();
+    let rot: Mat3 = *Rotation3::from_axis_angle(
+        &nalgebra::Unit::new_normalize(Vec3::new(0.3, 1.0, -0.5)),
+        2.0,
+    )
+    .matrix();
+    let moved = b
+        .map_vertices(|p| Point::from(1.7 * (rot * p.coords) + Vec3::new(-2.0, 0.5, 4.0)))
+        .unwrap();
+    let lm: Vec<(usize, usize)> = farthest_point_sampling(&a, 4, FpsMetric::Geodesic, 3)
+        .unwrap()
+        .into_iter()
+        .map(|i| (i, i))
+        .collect();
+    let plain = coarse_align(&a, &moved, &AutoOptions::default()).unwrap();
+    let with = coarse_align(
+        &a,
+        &moved,
+        &AutoOptions {
+            landmarks: lm.clone(),
+            ..AutoOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(plain.candidate_scores.len(), 24);
+    assert_eq!(with.candidate_scores.len(), 25);
+    let s = total_area(&moved).sqrt();
+    let d: Vec<f64> = lm
+        .iter()
+        .map(|&(i, j)| (with.motion.apply(&a.vertices()[i]) - moved.vertices()[j]).norm() / s)
+        .collect();
+    let angle = {
+        let r = with.motion.rotation * plain.motion.rotation.transpose();
+        ((r.trace() - 1.0) / 2.0)
+            .clamp(-1.0, 1.0)
+            .acos()
+            .to_degrees()
+    };
+    println!(
+        "landmark distances {d:.4?} (√area), chosen candidate {}, rotation vs no landmarks {angle:.2}°",
+        with.chosen
+    );
+    // A and B are different subjects (limb lengths differ), so a rigid fit
+    // leaves limb tips apart; a wrong rotation leaves them 0.3–1 √area apart.
+    assert!(d.iter().all(|&x| x < 0.2), "landmarks left at {d:?}");
+    assert!(angle < 10.0, "landmarks turned the alignment by {angle}°");
+
+    // Landmarks out of range are an error naming them.
+    let e = coarse_align(
+        &a,
+        &moved,
+        &AutoOptions {
+            landmarks: vec![(0, moved.n_vertices())],
+            ..AutoOptions::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("landmark (0, "), "{e}");
 }

@@ -97,6 +97,12 @@ pub struct TransferArgs {
     /// (any connectivity); writes registered_source.ply too.
     #[arg(long)]
     pub auto_correspondence: bool,
+    /// With --auto-correspondence: a few source→target vertex pairs
+    /// (landmarks; same formats as --correspondence, chosen by extension)
+    /// that guide the coarse alignment and stay constraints during the
+    /// nonrigid registration.
+    #[arg(long, requires = "auto_correspondence")]
+    pub landmarks: Option<PathBuf>,
     /// Target vertices of the key points, comma separated, in key point order.
     #[arg(long, value_delimiter = ',')]
     pub target_keypoints: Option<Vec<usize>>,
@@ -214,12 +220,24 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
     let mut auto: Option<AutoCorrespondence> = None;
     let target_kp: Vec<usize> = match &map {
         TargetMap::Auto => {
+            let landmarks = match &a.landmarks {
+                Some(path) => {
+                    let pairs = read_pairs(path, PairFormat::from_path(path), None)?;
+                    check_pairs(path, &pairs, source.n_vertices(), target.n_vertices())?;
+                    if pairs.is_empty() {
+                        return Err(Error::parse(path, "file", "no landmarks"));
+                    }
+                    pairs.iter().map(|p| (p.source, p.target)).collect()
+                }
+                None => Vec::new(),
+            };
             let r = auto_correspondence(
                 &source,
                 &source_kp,
                 &target,
                 &AutoOptions {
                     seed: a.select.seed,
+                    landmarks,
                     ..AutoOptions::default()
                 },
             )?;

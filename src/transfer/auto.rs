@@ -14,7 +14,10 @@
 //!    distance can detect on a bilaterally symmetric shape. Each candidate
 //!    is refined by a few iterations of symmetric rigid ICP (closest-point
 //!    pairs in both directions, Kabsch) and scored by the symmetric mean
-//!    closest-point distance; the best one is refined further.
+//!    closest-point distance; the best one is refined further. With
+//!    landmarks ([`AutoOptions::landmarks`]) the score adds their mean
+//!    distance, and three or more landmarks add one candidate: the rigid
+//!    fit of the landmark pairs.
 //! 2. **Nonrigid registration** ([`auto_correspondence`]). The aligned `A`
 //!    is the only example of an FBT model ([`crate::register`]): LBO
 //!    weighting functions of `A` (no examples of `B`'s class are needed),
@@ -204,7 +207,9 @@ pub struct CoarseAlignment {
     /// Symmetric mean closest-point distance after the alignment, in
     /// √area(B) units.
     pub residual: f64,
-    /// Score of every candidate (same units), in enumeration order.
+    /// Score of every candidate (same units, plus the mean landmark
+    /// distance when landmarks are given), in enumeration order: the 24
+    /// principal-axes rotations, then the landmark fit (≥ 3 landmarks).
     pub candidate_scores: Vec<f64>,
     /// Index of the chosen candidate.
     pub chosen: usize,
@@ -430,6 +435,17 @@ impl RigidProblem<'_> {
 
 /// Coarse similarity alignment of `a` onto `b` (see the module docs).
 pub fn coarse_align(a: &Mesh, b: &Mesh, opts: &AutoOptions) -> Result<CoarseAlignment> {
+    if let Some(&(i, j)) = opts
+        .landmarks
+        .iter()
+        .find(|&&(i, j)| i >= a.n_vertices() || j >= b.n_vertices())
+    {
+        return Err(Error::invalid(format!(
+            "landmark ({i}, {j}) out of range ({} / {} vertices)",
+            a.n_vertices(),
+            b.n_vertices()
+        )));
+    }
     let (ca, cov_a, area_a) = moments(a)?;
     let (cb, cov_b, area_b) = moments(b)?;
     let scale = (area_b / area_a).sqrt();
@@ -443,20 +459,53 @@ pub fn coarse_align(a: &Mesh, b: &Mesh, opts: &AutoOptions) -> Result<CoarseAlig
         sb: samples(b, opts.coarse_samples, opts.seed)?,
         sqrt_area_b: area_b.sqrt(),
     };
-    let mut scores = Vec::new();
-    let mut best: Option<(f64, usize, SimilarityMotion)> = None;
-    for p in signed_permutations() {
-        let rotation = eb * p * ea.transpose();
-        if rotation.determinant() < 0.0 {
-            continue;
+    // Landmarks (when given) join the score: mean landmark distance in
+    // √area(B) units. Between very different poses the symmetric distance
+    // alone can prefer a wrong rotation (a standing person folded into a
+    // crouching armadillo); a few landmarks rule such candidates out.
+    let (av, bv) = (a.vertices(), b.vertices());
+    let landmark_distance = |m: &SimilarityMotion| -> f64 {
+        if opts.landmarks.is_empty() {
+            return 0.0;
         }
-        let m = SimilarityMotion {
+        opts.landmarks
+            .iter()
+            .map(|&(i, j)| (m.apply(&av[i]) - bv[j]).norm())
+            .sum::<f64>()
+            / opts.landmarks.len() as f64
+            / prob.sqrt_area_b
+    };
+    let mut starts: Vec<SimilarityMotion> = signed_permutations()
+        .into_iter()
+        .map(|p| eb * p * ea.transpose())
+        .filter(|r| r.determinant() > 0.0)
+        .map(|rotation| SimilarityMotion {
             scale,
             rotation,
             translation: cb.coords - scale * (rotation * ca.coords),
-        };
+        })
+        .collect();
+    // With three or more landmarks, one more candidate: the rotation and
+    // translation that best fit the landmark pairs (scale from the areas).
+    if opts.landmarks.len() >= 3 {
+        let moving: Vec<Point> = opts
+            .landmarks
+            .iter()
+            .map(|&(i, _)| Point::from(scale * av[i].coords))
+            .collect();
+        let fixed: Vec<Point> = opts.landmarks.iter().map(|&(_, j)| bv[j]).collect();
+        let r = procrustes(&moving, &fixed)?;
+        starts.push(SimilarityMotion {
+            scale,
+            rotation: r.rotation,
+            translation: r.translation,
+        });
+    }
+    let mut scores = Vec::new();
+    let mut best: Option<(f64, usize, SimilarityMotion)> = None;
+    for m in starts {
         let m = prob.refine(m, opts.candidate_iterations)?;
-        let s = prob.score(&m);
+        let s = prob.score(&m) + landmark_distance(&m);
         scores.push(s);
         if best.as_ref().is_none_or(|b| s < b.0) {
             best = Some((s, scores.len() - 1, m));
