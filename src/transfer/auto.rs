@@ -435,17 +435,7 @@ impl RigidProblem<'_> {
 
 /// Coarse similarity alignment of `a` onto `b` (see the module docs).
 pub fn coarse_align(a: &Mesh, b: &Mesh, opts: &AutoOptions) -> Result<CoarseAlignment> {
-    if let Some(&(i, j)) = opts
-        .landmarks
-        .iter()
-        .find(|&&(i, j)| i >= a.n_vertices() || j >= b.n_vertices())
-    {
-        return Err(Error::invalid(format!(
-            "landmark ({i}, {j}) out of range ({} / {} vertices)",
-            a.n_vertices(),
-            b.n_vertices()
-        )));
-    }
+    check_landmarks(a, b, &opts.landmarks)?;
     let (ca, cov_a, area_a) = moments(a)?;
     let (cb, cov_b, area_b) = moments(b)?;
     let scale = (area_b / area_a).sqrt();
@@ -460,9 +450,9 @@ pub fn coarse_align(a: &Mesh, b: &Mesh, opts: &AutoOptions) -> Result<CoarseAlig
         sqrt_area_b: area_b.sqrt(),
     };
     // Landmarks (when given) join the score: mean landmark distance in
-    // √area(B) units. Between very different poses the symmetric distance
-    // alone can prefer a wrong rotation (a standing person folded into a
-    // crouching armadillo); a few landmarks rule such candidates out.
+    // √area(B) units. Between very different shapes or poses the symmetric
+    // distance alone can prefer a wrong rotation; a few landmarks rule such
+    // candidates out.
     let (av, bv) = (a.vertices(), b.vertices());
     let landmark_distance = |m: &SimilarityMotion| -> f64 {
         if opts.landmarks.is_empty() {
@@ -621,6 +611,20 @@ fn symmetric_distance(p: &[Point], q: &[Point]) -> Result<f64> {
     Ok((s1 + s2) / (p.len() + q.len()) as f64)
 }
 
+fn check_landmarks(a: &Mesh, b: &Mesh, landmarks: &[(usize, usize)]) -> Result<()> {
+    match landmarks
+        .iter()
+        .find(|&&(i, j)| i >= a.n_vertices() || j >= b.n_vertices())
+    {
+        Some(&(i, j)) => Err(Error::invalid(format!(
+            "landmark ({i}, {j}) out of range ({} / {} vertices)",
+            a.n_vertices(),
+            b.n_vertices()
+        ))),
+        None => Ok(()),
+    }
+}
+
 fn check_options(a: &Mesh, b: &Mesh, keypoints: &[usize], opts: &AutoOptions) -> Result<()> {
     if a.n_vertices() < 4 || b.n_vertices() < 4 {
         return Err(Error::invalid(
@@ -635,15 +639,7 @@ fn check_options(a: &Mesh, b: &Mesh, keypoints: &[usize], opts: &AutoOptions) ->
             )));
         }
     }
-    for &(i, j) in &opts.landmarks {
-        if i >= a.n_vertices() || j >= b.n_vertices() {
-            return Err(Error::invalid(format!(
-                "landmark ({i}, {j}) out of range ({} / {} vertices)",
-                a.n_vertices(),
-                b.n_vertices()
-            )));
-        }
-    }
+    check_landmarks(a, b, &opts.landmarks)?;
     if opts.lbo < 1 || opts.clusters < 1 {
         return Err(Error::invalid(
             "automatic correspondence needs lbo ≥ 1 and clusters ≥ 1",
