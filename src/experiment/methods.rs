@@ -44,7 +44,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use nalgebra::DMatrix;
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::cases::Case;
@@ -608,22 +608,8 @@ pub fn extremity_keypoints(
         }
     };
     if jitter > 0.0 {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let radius = jitter * sqrt_area;
-        let mut chosen: Vec<usize> = Vec::with_capacity(picks.len());
-        for &p in &picks {
-            let d = graph.distances(&[p])?;
-            let near: Vec<usize> = (0..n)
-                .filter(|&i| d[i] <= radius && !chosen.contains(&i))
-                .collect();
-            let pick = if near.is_empty() {
-                p
-            } else {
-                near[rng.random_range(0..near.len())]
-            };
-            chosen.push(pick);
-        }
-        picks = chosen;
+        // The same seeded geodesic draw as the target key point noise.
+        picks = crate::transfer::perturb_keypoints(a, &picks, jitter * sqrt_area, seed)?;
     }
     Ok(picks)
 }
