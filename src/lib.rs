@@ -41,6 +41,7 @@ pub mod error;
 pub mod eval;
 pub mod experiment;
 pub mod mesh;
+pub mod methods;
 pub mod ops;
 pub mod plot;
 pub mod register;
