@@ -4,6 +4,7 @@ use std::path::Path;
 use std::process::Command;
 
 use deformlab::experiment::{load_config, parse_config, Method};
+use deformlab::methods::{KeypointSource, TransferMethod};
 
 const BIN: &str = env!("CARGO_BIN_EXE_deformlab");
 
@@ -38,20 +39,24 @@ fn good_config_resolves_methods_and_defaults() {
     let c = parse_config(GOOD, Path::new("exp.toml")).unwrap();
     assert_eq!(c.methods.len(), 2);
     match &c.methods[1].method {
-        Method::BdtRandom {
-            pipeline,
-            count,
-            seed,
+        Method::Transfer(TransferMethod::Bdt {
+            keypoints: KeypointSource::Random { count, seed, .. },
+            options,
             ..
-        } => {
+        }) => {
             assert_eq!((*count, *seed), (4, 9));
-            assert_eq!(pipeline.keypoints.n_candidates, 12);
-            assert_eq!(pipeline.keypoints.seed, 9);
+            assert_eq!(options.keypoints.n_candidates, 12);
+            assert_eq!(options.keypoints.seed, 9);
         }
         m => panic!("{m:?}"),
     }
-    assert_eq!(c.methods[0].method.pipeline().keypoints.n_candidates, 12);
-    assert_eq!(c.methods[0].method.pipeline().keypoints.seed, 0);
+    match &c.methods[0].method {
+        Method::Transfer(TransferMethod::Bdt { options, .. }) => {
+            assert_eq!(options.keypoints.n_candidates, 12);
+            assert_eq!(options.keypoints.seed, 0);
+        }
+        m => panic!("{m:?}"),
+    }
 }
 
 #[test]

@@ -208,7 +208,8 @@ fn cli_auto_correspondence_end_to_end() {
 
 #[test]
 fn config_keys_are_validated_and_named() {
-    use deformlab::experiment::config::{parse_config, TargetCorrespondenceSpec};
+    use deformlab::experiment::config::{parse_config, Method};
+    use deformlab::methods::{TargetCorrespondence, TransferMethod};
     let p = std::path::Path::new("auto.toml");
     let ok = parse_config(
         "name = \"a\"\n[[methods]]\nname = \"m\"\nkind = \"sumner\"\n\
@@ -216,8 +217,10 @@ fn config_keys_are_validated_and_named() {
         p,
     )
     .unwrap();
-    let t = ok.methods[0].method.pipeline().target;
-    assert_eq!(t.correspondence, TargetCorrespondenceSpec::Auto);
+    let Method::Transfer(TransferMethod::Sumner { target: t, .. }) = &ok.methods[0].method else {
+        panic!("{:?}", ok.methods[0].method)
+    };
+    assert_eq!(t.correspondence, TargetCorrespondence::Auto);
     assert_eq!((t.noise, t.noise_seed), (0.02, 3));
     let e = parse_config(
         "name = \"a\"\n[[methods]]\nname = \"m\"\nkind = \"clustering\"\n\

@@ -68,7 +68,8 @@ fn transfer_options(kp: &KeypointOptions) -> TransferOptions {
     TransferOptions {
         frame: TransferFrame::Direct,
         weights: kp.weights,
-        weight_kind: TargetWeights::Fast(kp.fast.bounds),
+        weight_kind: TargetWeights::Fast,
+        fast_bounds: kp.fast.bounds,
         ..TransferOptions::default()
     }
 }

@@ -7,63 +7,20 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
-use clap::{Args, ValueEnum};
+use clap::Args;
 use serde_json::{json, Value};
 
 use deformlab::mesh::io::{read_mesh, write_atomic};
+use deformlab::methods::KeypointSource;
 use deformlab::skin::bbw::{BbwOptions, WeightMode};
 use deformlab::transfer::keypoints::{
-    select_keypoints, ErrorNorm, KeypointOptions, KeypointSelection, SelectionMode,
+    ErrorNorm, KeypointOptions, KeypointSelection, SelectionMode,
 };
 use deformlab::{Error, Mesh, Result};
 
-/// Selection mode on the command line.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum ModeArg {
-    /// Every candidate is scored with the full fit (Algorithm 1 as written).
-    Exact,
-    /// Cheaper scoring of candidates (see the library documentation).
-    Fast,
-}
-
-impl ModeArg {
-    fn mode(self) -> SelectionMode {
-        match self {
-            ModeArg::Exact => SelectionMode::Exact,
-            ModeArg::Fast => SelectionMode::Fast,
-        }
-    }
-    pub fn name(self) -> &'static str {
-        match self {
-            ModeArg::Exact => "exact",
-            ModeArg::Fast => "fast",
-        }
-    }
-}
-
-/// Error measure of the selection on the command line.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum NormArg {
-    /// Mean per-vertex Euclidean distance (the default; size-independent).
-    Mean,
-    /// BDT Eq. 22 literally: 1/(m n) Σ_j ‖D_S(A) − A′_j‖_F (tiny on large meshes).
-    Paper,
-    /// Root-mean-square vertex distance, averaged over the sources.
-    Rms,
-}
-
-/// Bounded biharmonic weights of exact-mode trials on the command line.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum WeightsArg {
-    /// Each handle's weights bounded separately, rows normalised (Jacobson
-    /// et al. 2011 practice, libigl's bbw; the default).
-    PerHandle,
-    /// BDT Eq. 1 literally: partition of unity as a constraint (slower).
-    Coupled,
-}
-
 /// Source, deformed sources and the selection settings (shared by
-/// `keypoints` and `transfer`).
+/// `keypoints` and `transfer`). Every option left out takes the library's
+/// default ([`KeypointOptions::default`]), as a config without the key does.
 #[derive(Args, Debug, Clone)]
 pub struct SelectArgs {
     /// Source reference mesh A.
@@ -72,52 +29,50 @@ pub struct SelectArgs {
     /// Deformed sources A′ (same connectivity as A), one or more.
     #[arg(long, num_args = 1.., required = true)]
     pub deformed: Vec<PathBuf>,
-    /// Number of farthest-point-sampled candidates n_c.
-    #[arg(long, default_value_t = 100)]
-    pub candidates: usize,
-    /// Seed of every random choice (first FPS sample, k-means of the groups).
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// Stop adding key points when the error (unit-sphere units) is below ε.
-    #[arg(long, default_value_t = 0.03)]
-    pub epsilon: f64,
-    /// Upper bound on the number of key points (default: the library's).
+    /// Number of farthest-point-sampled candidates n_c [default: 100].
+    #[arg(long)]
+    pub candidates: Option<usize>,
+    /// Seed of every random choice (first FPS sample, k-means of the groups) [default: 0].
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Stop adding key points when the error (unit-sphere units) is below ε [default: 0.03].
+    #[arg(long)]
+    pub epsilon: Option<f64>,
+    /// Upper bound on the number of key points [default: 30].
     #[arg(long)]
     pub max_keypoints: Option<usize>,
-    /// Candidate scoring.
-    #[arg(long, value_enum, default_value_t = ModeArg::Fast)]
-    pub mode: ModeArg,
-    /// Error compared with ε.
-    #[arg(long, value_enum, default_value_t = NormArg::Mean)]
-    pub error_norm: NormArg,
-    /// Bounded biharmonic weights of the exact-mode trials.
-    #[arg(long, value_enum, default_value_t = WeightsArg::PerHandle)]
-    pub weights: WeightsArg,
+    /// Candidate scoring [default: fast].
+    #[arg(long, value_enum)]
+    pub mode: Option<SelectionMode>,
+    /// Error compared with ε [default: mean].
+    #[arg(long, value_enum)]
+    pub error_norm: Option<ErrorNorm>,
+    /// Bounded biharmonic weights of the exact-mode trials and of the fit
+    /// (per-handle: each handle bounded separately, rows normalised, as
+    /// libigl's bbw; coupled: BDT Eq. 1 with partition of unity, slower)
+    /// [default: per-handle].
+    #[arg(long, value_enum)]
+    pub weights: Option<WeightMode>,
 }
 
 impl SelectArgs {
-    /// Library options from the command line.
+    /// Library options from the command line: [`KeypointOptions::default`]
+    /// with the flags given.
     pub fn options(&self) -> KeypointOptions {
-        let mut o = KeypointOptions {
-            n_candidates: self.candidates,
-            seed: self.seed,
-            epsilon: self.epsilon,
-            mode: self.mode.mode(),
-            error_norm: match self.error_norm {
-                NormArg::Mean => ErrorNorm::MeanDistance,
-                NormArg::Paper => ErrorNorm::Paper,
-                NormArg::Rms => ErrorNorm::Rms,
+        let d = KeypointOptions::default();
+        KeypointOptions {
+            n_candidates: self.candidates.unwrap_or(d.n_candidates),
+            seed: self.seed.unwrap_or(d.seed),
+            epsilon: self.epsilon.unwrap_or(d.epsilon),
+            max_keypoints: self.max_keypoints.unwrap_or(d.max_keypoints),
+            mode: self.mode.unwrap_or(d.mode),
+            error_norm: self.error_norm.unwrap_or(d.error_norm),
+            weights: match self.weights {
+                Some(m) => BbwOptions::with_mode(m),
+                None => d.weights,
             },
-            ..KeypointOptions::default()
-        };
-        o.weights = BbwOptions::with_mode(match self.weights {
-            WeightsArg::PerHandle => WeightMode::PerHandle,
-            WeightsArg::Coupled => WeightMode::Coupled,
-        });
-        if let Some(k) = self.max_keypoints {
-            o.max_keypoints = k;
+            ..d
         }
-        o
     }
 
     /// Loads A and the A′ (checking that every A′ has A's vertex count).
@@ -155,7 +110,7 @@ impl SelectArgs {
             "seed": opts.seed,
             "epsilon": opts.epsilon,
             "max_keypoints": opts.max_keypoints,
-            "mode": self.mode.name(),
+            "mode": opts.mode,
             "error_norm": format!("{:?}", opts.error_norm),
             "weights": format!("{:?}", opts.weights.mode),
         })
@@ -190,7 +145,14 @@ pub fn run(a: KeypointsArgs) -> Result<ExitCode> {
     refuse_overwrite(&outputs, a.force)?;
     let (source, deformed) = a.select.load()?;
     let opts = a.select.options();
-    let sel = select_keypoints(&source, &deformed, &opts)?;
+    let picked = KeypointSource::Automatic {
+        selection_poses: None,
+    }
+    .pick(&source, &deformed, &opts)?;
+    let sel = picked
+        .selection
+        .map(|(s, _)| s)
+        .ok_or_else(|| Error::invalid("the automatic selection returned no selection"))?;
     print_selection(&sel);
     if let Some(dir) = &a.out {
         create_dir(dir)?;

@@ -19,43 +19,26 @@
 //!   A and B may have any connectivity. Also writes DIR/registered_source.ply
 //!   (A registered onto B) and the registration diagnostics in log.json.
 
-use std::collections::HashMap;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
-use clap::{ArgGroup, Args, ValueEnum};
-use serde_json::{json, Value};
+use clap::{ArgGroup, Args};
+use serde_json::json;
 
 use deformlab::data::correspondence::{check_pairs, read_pairs, PairFormat};
 use deformlab::mesh::io::{read_mesh, write_ply};
-use deformlab::skin::Affine;
-use deformlab::transfer::keypoints::{fit_keypoints, select_keypoints, SelectionMode};
-use deformlab::transfer::{
-    auto_correspondence, transfer_detailed, AutoCorrespondence, AutoOptions, TargetWeights,
-    TransferFrame, TransferOptions,
+use deformlab::methods::{
+    BdtOptions, KeypointSource, TargetCorrespondence, TargetPoints, TransferCase, TransferMethod,
 };
+use deformlab::transfer::{TargetWeights, TransferFrame};
 use deformlab::{Error, Mesh, Result};
 
 use super::keypoints::{
     create_dir, print_selection, read_keypoints_csv, refuse_overwrite, selection_json, write_json,
     write_keypoints_csv, KeypointRow, SelectArgs,
 };
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum FrameArg {
-    /// T_k applied to B as is (A and B in one frame).
-    Direct,
-    /// Same linear part and same handle displacement as on A.
-    HandleRelative,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum FormatArg {
-    Csv,
-    MarkersYml,
-    Cons,
-}
 
 /// `deformlab transfer` arguments.
 #[derive(Args, Debug)]
@@ -86,7 +69,7 @@ pub struct TransferArgs {
     pub correspondence: Option<PathBuf>,
     /// Format of the correspondence file (default: from its extension).
     #[arg(long, value_enum, requires = "correspondence")]
-    pub format: Option<FormatArg>,
+    pub format: Option<PairFormat>,
     /// Index base of the correspondence file (default: the format's).
     #[arg(long, requires = "correspondence")]
     pub base: Option<usize>,
@@ -113,27 +96,18 @@ pub struct TransferArgs {
     /// Output folder (created if missing).
     #[arg(long)]
     pub out: PathBuf,
-    /// How the transforms act on B.
-    #[arg(long, value_enum, default_value_t = FrameArg::Direct)]
-    pub frame: FrameArg,
+    /// How the transforms act on B [default: direct].
+    #[arg(long, value_enum)]
+    pub frame: Option<TransferFrame>,
+    /// Weights computed on B (auto: those of the fit on A, per --mode) [default: auto].
+    #[arg(long, value_enum)]
+    pub target_weights: Option<TargetWeights>,
     /// Refine each B′ with handle-constrained reduced ARAP on B.
     #[arg(long)]
     pub refine: bool,
     /// Overwrite existing outputs.
     #[arg(long)]
     pub force: bool,
-}
-
-enum TargetMap {
-    Same,
-    List(Vec<usize>),
-    Markers {
-        path: PathBuf,
-        map: HashMap<usize, usize>,
-        sources: Vec<usize>,
-    },
-    FromFile,
-    Auto,
 }
 
 fn stem(p: &Path) -> String {
@@ -175,14 +149,11 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
         Some(p) => Some((p.clone(), read_keypoints_csv(p)?)),
         None => None,
     };
-    let map = target_map(&a, &source, &target, given.as_ref())?;
-    if let TargetMap::Markers { sources, .. } = &map {
-        opts.candidate_pool = sources.clone();
-    }
-
-    // Source key points and their transforms.
-    let log_sel: Value;
-    let (source_kp, transforms, fit_error): (Vec<usize>, Vec<Vec<Affine>>, f64) = match &given {
+    let (correspondence, map_label, pool) = target_map(&a, &source, &target, given.as_ref())?;
+    // With markers: candidates drawn from the file's source vertices only
+    // (in the file's order).
+    opts.candidate_pool = pool;
+    let keypoints = match &given {
         Some((path, rows)) => {
             let kp: Vec<usize> = rows.iter().map(|r| r.source).collect();
             if let Some(&bad) = kp.iter().find(|&&v| v >= source.n_vertices()) {
@@ -195,129 +166,98 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
                     ),
                 ));
             }
-            let t = Instant::now();
-            let fit = fit_keypoints(&source, &deformed, &kp, &opts)
-                .map_err(|e| Error::invalid(format!("{}: {e}", path.display())))?;
+            KeypointSource::Given(kp)
+        }
+        None => KeypointSource::Automatic {
+            selection_poses: None,
+        },
+    };
+    let landmarks = match &a.landmarks {
+        Some(path) => {
+            let pairs = read_pairs(path, PairFormat::from_path(path), None)?;
+            check_pairs(path, &pairs, source.n_vertices(), target.n_vertices())?;
+            if pairs.is_empty() {
+                return Err(Error::parse(path, "file", "no landmarks"));
+            }
+            pairs.iter().map(|p| (p.source, p.target)).collect()
+        }
+        None => Vec::new(),
+    };
+    let d = BdtOptions::default();
+    let method = TransferMethod::Bdt {
+        keypoints,
+        target: TargetPoints {
+            correspondence,
+            landmarks,
+            seed: opts.seed,
+            ..TargetPoints::default()
+        },
+        options: BdtOptions {
+            keypoints: opts.clone(),
+            frame: a.frame.unwrap_or(d.frame),
+            target_weights: a.target_weights.unwrap_or(d.target_weights),
+            refine: a.refine || d.refine,
+        },
+    };
+    let res = method
+        .run(&TransferCase {
+            a: &source,
+            a_def: &deformed,
+            b: &target,
+        })
+        .map_err(|e| match &given {
+            Some((path, _)) => Error::invalid(format!("{}: {e}", path.display())),
+            None => e,
+        })?;
+    let (Some(picked), Some(found), Some(fit)) = (&res.keypoints, &res.target, &res.fit) else {
+        return Err(Error::invalid("BDT returned no key points"));
+    };
+    let source_kp = picked.keypoints.clone();
+    let target_kp = found.keypoints.clone();
+    let auto = found.auto.as_ref();
+    let fit_seconds = res.timings.fit.unwrap_or(0.0);
+    let log_sel = match (&picked.selection, &given) {
+        (Some((sel, _)), _) => {
+            print_selection(sel);
+            selection_json(sel)
+        }
+        (None, Some((path, _))) => {
             println!(
                 "{} key points from {}, fit error {:.6} (unit-sphere units), {:.2} s",
-                kp.len(),
+                source_kp.len(),
                 path.display(),
                 fit.error,
-                t.elapsed().as_secs_f64()
+                fit_seconds
             );
-            log_sel = json!({"from_file": path.display().to_string(), "keypoints": kp,
-                "error": fit.error, "seconds": t.elapsed().as_secs_f64()});
-            (kp, fit.transforms, fit.error)
+            json!({"from_file": path.display().to_string(), "keypoints": source_kp,
+                "error": fit.error, "seconds": fit_seconds})
         }
-        None => {
-            let sel = select_keypoints(&source, &deformed, &opts)?;
-            print_selection(&sel);
-            log_sel = selection_json(&sel);
-            (sel.keypoints.clone(), sel.transforms.clone(), sel.error)
-        }
+        (None, None) => json!(null),
     };
-
-    let mut auto: Option<AutoCorrespondence> = None;
-    let target_kp: Vec<usize> = match &map {
-        TargetMap::Auto => {
-            let landmarks = match &a.landmarks {
-                Some(path) => {
-                    let pairs = read_pairs(path, PairFormat::from_path(path), None)?;
-                    check_pairs(path, &pairs, source.n_vertices(), target.n_vertices())?;
-                    if pairs.is_empty() {
-                        return Err(Error::parse(path, "file", "no landmarks"));
-                    }
-                    pairs.iter().map(|p| (p.source, p.target)).collect()
-                }
-                None => Vec::new(),
-            };
-            let r = auto_correspondence(
-                &source,
-                &source_kp,
-                &target,
-                &AutoOptions {
-                    seed: a.select.seed,
-                    landmarks,
-                    ..AutoOptions::default()
-                },
-            )?;
-            println!(
-                "automatic correspondence: coarse residual {:.4}, registration residual {:.4} \
-                 (√area(B) units), α {:.3}, {:.2} s; target key points {:?}",
-                r.coarse.residual, r.residual, r.alpha, r.seconds, r.target_keypoints
-            );
-            let kp = r.target_keypoints.clone();
-            auto = Some(r);
-            kp
-        }
-        TargetMap::Same => source_kp.clone(),
-        TargetMap::List(v) => {
-            if v.len() != source_kp.len() {
-                return Err(Error::invalid(format!(
-                    "--target-keypoints has {} vertices but there are {} key points {:?}; \
-                     pass --keypoints FILE to fix the source key points",
-                    v.len(),
-                    source_kp.len(),
-                    source_kp
-                )));
-            }
-            v.clone()
-        }
-        TargetMap::Markers { path, map, .. } => source_kp
-            .iter()
-            .map(|s| {
-                map.get(s).copied().ok_or_else(|| {
-                    Error::parse(
-                        path,
-                        "markers",
-                        format!("key point (source vertex {s}) is not a source vertex of the file"),
-                    )
-                })
-            })
-            .collect::<Result<_>>()?,
-        TargetMap::FromFile => given
-            .as_ref()
-            .map(|(_, rows)| rows.iter().filter_map(|r| r.target).collect())
-            .unwrap_or_default(),
+    if let Some(r) = auto {
+        println!(
+            "automatic correspondence: coarse residual {:.4}, registration residual {:.4} \
+             (√area(B) units), α {:.3}, {:.2} s; target key points {:?}",
+            r.coarse.residual, r.residual, r.alpha, r.seconds, r.target_keypoints
+        );
+    }
+    let fit_error = fit.error;
+    let (frame, refine) = match &method {
+        TransferMethod::Bdt { options, .. } => (options.frame, options.refine),
+        TransferMethod::Identity
+        | TransferMethod::Sumner { .. }
+        | TransferMethod::SumnerOracle
+        | TransferMethod::Cage { .. } => (TransferFrame::Direct, false),
     };
-
-    let topts = TransferOptions {
-        frame: match a.frame {
-            FrameArg::Direct => TransferFrame::Direct,
-            FrameArg::HandleRelative => TransferFrame::HandleRelative,
-        },
-        weights: opts.weights,
-        // B is skinned the way A was when the transforms were fitted.
-        weight_kind: match opts.mode {
-            SelectionMode::Exact => TargetWeights::Bounded,
-            SelectionMode::Fast => TargetWeights::Fast(opts.fast.bounds),
-        },
-        refine: a.refine,
-        seed: a.select.seed,
-        ..TransferOptions::default()
-    };
-    // A rotated onto B by the registration: transforms in B's frame.
-    let (source_t, transforms) = match &auto {
-        Some(r) => (
-            r.source_in_target_frame(&source)?,
-            r.target_frame_transforms(&transforms),
-        ),
-        None => (source.clone(), transforms),
-    };
-    let res = transfer_detailed(
-        &source_t,
-        &source_kp,
-        &transforms,
-        &target,
-        &target_kp,
-        &topts,
-    )?;
+    let seconds_weights = res.timings.weights.unwrap_or(0.0);
+    let seconds_lbs = res.timings.lbs.unwrap_or(0.0);
+    let seconds_refine = res.timings.refine.unwrap_or(0.0);
 
     create_dir(&a.out)?;
     for (p, m) in mesh_out.iter().zip(&res.meshes) {
         write_ply(p, m)?;
     }
-    if let Some(r) = &auto {
+    if let Some(r) = auto {
         write_ply(&reg_out, &r.registered)?;
     }
     let rows: Vec<KeypointRow> = source_kp
@@ -334,18 +274,8 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
         "version": env!("CARGO_PKG_VERSION"),
         "settings": a.select.json(&opts),
         "target": a.target.display().to_string(),
-        "target_map": match &map {
-            TargetMap::Same => "same-connectivity".to_string(),
-            TargetMap::List(_) => "list".to_string(),
-            TargetMap::Markers { path, sources, .. } => format!(
-                "correspondence {} (candidates drawn from its {} source vertices)",
-                path.display(),
-                sources.len()
-            ),
-            TargetMap::FromFile => "keypoints file".to_string(),
-            TargetMap::Auto => "automatic (registration of the source onto the target)".to_string(),
-        },
-        "auto_correspondence": auto.as_ref().map(|r| json!({
+        "target_map": map_label,
+        "auto_correspondence": auto.map(|r| json!({
             "coarse_residual_sqrt_area": r.coarse.residual,
             "coarse_candidate_scores": r.coarse.candidate_scores,
             "coarse_chosen": r.coarse.chosen,
@@ -359,16 +289,17 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
             "seconds": r.seconds,
             "output": reg_out.display().to_string(),
         })),
-        "frame": topts.frame.name(),
-        "refine": a.refine,
+        "frame": frame.name(),
+        "refine": refine,
         "selection": log_sel,
         "fit_error": fit_error,
         "source_keypoints": source_kp,
         "target_keypoints": target_kp,
         "seconds": {
-            "target_weights": res.seconds_weights,
-            "lbs": res.seconds_lbs,
-            "refine": res.seconds_refine,
+            "fit": fit_seconds,
+            "target_weights": seconds_weights,
+            "lbs": seconds_lbs,
+            "refine": seconds_refine,
             "total": t_all.elapsed().as_secs_f64(),
         },
         "outputs": mesh_out.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
@@ -379,11 +310,11 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
         res.meshes.len(),
         a.target.display(),
         source_kp.len(),
-        topts.frame.name(),
-        if a.refine { "refined" } else { "not refined" },
-        res.seconds_weights,
-        res.seconds_lbs,
-        res.seconds_refine,
+        frame.name(),
+        if refine { "refined" } else { "not refined" },
+        seconds_weights,
+        seconds_lbs,
+        seconds_refine,
         t_all.elapsed().as_secs_f64()
     );
     for p in &mesh_out {
@@ -396,14 +327,19 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// How the target key points are found, and its label for the log.
 fn target_map(
     a: &TransferArgs,
     source: &Mesh,
     target: &Mesh,
     given: Option<&(PathBuf, Vec<KeypointRow>)>,
-) -> Result<TargetMap> {
+) -> Result<(TargetCorrespondence, String, Vec<usize>)> {
     if a.auto_correspondence {
-        return Ok(TargetMap::Auto);
+        return Ok((
+            TargetCorrespondence::Auto,
+            "automatic (registration of the source onto the target)".to_string(),
+            Vec::new(),
+        ));
     }
     if a.same_connectivity {
         if source.n_vertices() != target.n_vertices() {
@@ -418,7 +354,11 @@ fn target_map(
                 ),
             ));
         }
-        return Ok(TargetMap::Same);
+        return Ok((
+            TargetCorrespondence::Identity,
+            "same-connectivity".to_string(),
+            Vec::new(),
+        ));
     }
     if let Some(v) = &a.target_keypoints {
         if let Some((path, rows)) = given {
@@ -431,21 +371,20 @@ fn target_map(
                 )));
             }
         }
-        return Ok(TargetMap::List(v.clone()));
+        return Ok((
+            TargetCorrespondence::List(v.clone()),
+            "list".to_string(),
+            Vec::new(),
+        ));
     }
     if let Some(path) = &a.correspondence {
-        let format = match a.format {
-            Some(FormatArg::Csv) => PairFormat::Csv,
-            Some(FormatArg::MarkersYml) => PairFormat::MarkersYml,
-            Some(FormatArg::Cons) => PairFormat::Cons,
-            None => PairFormat::from_path(path),
-        };
+        let format = a.format.unwrap_or_else(|| PairFormat::from_path(path));
         let pairs = read_pairs(path, format, a.base)?;
         check_pairs(path, &pairs, source.n_vertices(), target.n_vertices())?;
         if pairs.is_empty() {
             return Err(Error::parse(path, "file", "no correspondences"));
         }
-        let mut map = HashMap::new();
+        let mut map = BTreeMap::new();
         let mut sources = Vec::new();
         for p in &pairs {
             if let Some(&t) = map.get(&p.source) {
@@ -464,14 +403,26 @@ fn target_map(
                 sources.push(p.source);
             }
         }
-        return Ok(TargetMap::Markers {
-            path: path.clone(),
-            map,
+        let label = format!(
+            "correspondence {} (candidates drawn from its {} source vertices)",
+            path.display(),
+            map.len()
+        );
+        return Ok((
+            TargetCorrespondence::Markers {
+                file: path.display().to_string(),
+                map,
+            },
+            label,
             sources,
-        });
+        ));
     }
     match given {
-        Some((_, rows)) if rows.iter().all(|r| r.target.is_some()) => Ok(TargetMap::FromFile),
+        Some((_, rows)) if rows.iter().all(|r| r.target.is_some()) => Ok((
+            TargetCorrespondence::List(rows.iter().filter_map(|r| r.target).collect()),
+            "keypoints file".to_string(),
+            Vec::new(),
+        )),
         Some((path, _)) => Err(Error::invalid(format!(
             "{} has no `target` column; pass --same-connectivity, --target-keypoints, --correspondence or \
              --auto-correspondence",

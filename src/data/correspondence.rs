@@ -296,7 +296,9 @@ pub fn read_markers_yml(path: &Path, base: usize) -> Result<MarkerFile> {
 }
 
 /// Correspondence file formats.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize, serde::Serialize, clap::ValueEnum,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum PairFormat {
     Csv,

@@ -37,3 +37,14 @@ pub fn shared_data_or_skip(sub: &str, test: &str) -> Option<PathBuf> {
         }
     }
 }
+
+/// FNV-1a 64-bit hash of `bytes` (stable across platforms and versions: the
+/// config hash of a results folder and the per-case seeds use it).
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf29ce484222325;
+    for b in bytes {
+        h ^= u64::from(*b);
+        h = h.wrapping_mul(0x100000001b3);
+    }
+    h
+}

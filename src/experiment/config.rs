@@ -58,11 +58,14 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::methods::{
+    BdtOptions, Clustering, Examples, KeypointSource, Pool, Strategy, TargetCorrespondence,
+    TargetPoints, TransferMethod,
+};
 use crate::ops::FpsMetric;
-use crate::skin::GroupFeatures;
+use crate::skin::{FeatureKind, GroupFeatures};
 use crate::transfer::{
     ErrorNorm, FastOptions, KeypointOptions, SelectionMode, TargetWeights, TransferFrame,
-    TransferOptions,
 };
 use crate::{Error, Result};
 
@@ -220,79 +223,6 @@ pub struct CaseSpec {
     pub max_cases: Option<usize>,
 }
 
-/// Key point selection mode.
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum ModeSpec {
-    Exact,
-    Fast,
-}
-
-/// Error summary of the selection.
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum ErrorNormSpec {
-    Paper,
-    Rms,
-}
-
-/// FPS metric.
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum FpsSpec {
-    Geodesic,
-    Euclidean,
-}
-
-/// Rotation-group / clustering features.
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum FeaturesSpec {
-    /// `W` only.
-    Weights,
-    /// `[logr, s]` only.
-    RotationScale,
-    /// `W′ = [W, logr, s]` (BDT Eq. 15).
-    Augmented,
-}
-
-/// Transfer frame.
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum FrameSpec {
-    Direct,
-    HandleRelative,
-}
-
-/// Weights computed on the target.
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum TargetWeightsSpec {
-    /// The selection mode's weights (fast → fast, exact → bounded).
-    Auto,
-    Bounded,
-    Fast,
-}
-
-/// How the target key points are found.
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum TargetCorrespondenceSpec {
-    /// Target vertex = source vertex (shared connectivity).
-    Identity,
-    /// Registration of A onto B ([`crate::transfer::auto_correspondence`]).
-    Auto,
-}
-
-/// The resolved target key point options of a method.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TargetPoints {
-    pub correspondence: TargetCorrespondenceSpec,
-    /// Noise radius in √area(B) units.
-    pub noise: f64,
-    pub noise_seed: u64,
-}
-
 /// Method kinds.
 #[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
@@ -317,36 +247,9 @@ pub enum MethodKind {
     /// Cage-based spatial deformation transfer with the automatic BDT key
     /// points as markers ([`crate::baselines::cage`]).
     Cage,
-}
-
-/// Random key point pool.
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum PoolSpec {
-    /// Among the FPS candidates (n_candidates, the method's seed).
-    Candidates,
-    /// Among all vertices.
-    Vertices,
-}
-
-/// Extremity picking strategy.
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum StrategySpec {
-    /// Geodesic FPS started at the vertex nearest the centroid (the start
-    /// itself dropped): the farthest points first.
-    CentroidFps,
-    /// Local maxima of the geodesic distance from the centroid vertex, by
-    /// decreasing distance, then FPS to fill up.
-    Eccentricity,
-}
-
-/// Which deformed examples the clustering features use.
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum ExamplesSpec {
-    One,
-    All,
+    /// The target left unchanged (`B′ = B`): the floor of every transfer
+    /// evaluation.
+    Identity,
 }
 
 macro_rules! pipeline_struct {
@@ -365,21 +268,22 @@ macro_rules! pipeline_struct {
             /// Stage-1 threshold ε (default 0.03).
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub epsilon: Option<f64>,
-            /// `paper` (default) or `rms`.
+            /// `mean` (default: the mean per-vertex distance), `paper` (Eq. 22
+            /// literally) or `rms` ([`ErrorNorm`]).
             #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub error_norm: Option<ErrorNormSpec>,
+            pub error_norm: Option<ErrorNorm>,
             /// Upper bound on the key points (default 30).
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub max_keypoints: Option<usize>,
-            /// `exact` (default) or `fast`.
+            /// `fast` (default) or `exact` ([`SelectionMode`]).
             #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub mode: Option<ModeSpec>,
+            pub mode: Option<SelectionMode>,
             /// `geodesic` (default) or `euclidean`.
             #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub fps: Option<FpsSpec>,
+            pub fps: Option<FpsMetric>,
             /// Rotation-group features (default `augmented`).
             #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub groups: Option<FeaturesSpec>,
+            pub groups: Option<FeatureKind>,
             /// γ_logr (default 1).
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub gamma_logr: Option<f64>,
@@ -410,18 +314,18 @@ macro_rules! pipeline_struct {
             pub selection_poses: Option<usize>,
             /// `direct` (default) or `handle_relative`.
             #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub frame: Option<FrameSpec>,
+            pub frame: Option<TransferFrame>,
             /// ARAP refinement on the target (default false).
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub refine: Option<bool>,
             /// Target weights: `auto` (default), `bounded`, `fast`.
             #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub target_weights: Option<TargetWeightsSpec>,
+            pub target_weights: Option<TargetWeights>,
             /// Target key points: `identity` (default; shared connectivity,
             /// target vertex = source vertex) or `auto` (registration of A
             /// onto B, [`crate::transfer::auto`]; any connectivity).
             #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub target_correspondence: Option<TargetCorrespondenceSpec>,
+            pub target_correspondence: Option<TargetCorrespondence>,
             /// Geodesic noise on the target key points: each moves to a random
             /// vertex within this edge-path radius, √area(B) units (default 0).
             #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -463,10 +367,10 @@ pipeline_struct! {
         pub count: Option<usize>,
         /// Random pool (default `candidates`).
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        pub pool: Option<PoolSpec>,
+        pub pool: Option<Pool>,
         /// Extremity strategy (default `centroid_fps`).
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        pub strategy: Option<StrategySpec>,
+        pub strategy: Option<Strategy>,
         /// Extremity jitter radius in √area units (default 0: exact picks).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         pub jitter: Option<f64>,
@@ -475,10 +379,10 @@ pipeline_struct! {
         pub handles: Option<usize>,
         /// Clustering features.
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        pub features: Option<FeaturesSpec>,
+        pub features: Option<FeatureKind>,
         /// Clustering: `one` or `all` (default) deformed examples.
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        pub examples: Option<ExamplesSpec>,
+        pub examples: Option<Examples>,
         /// Clustering: clusters (default: the number of true labels, else `handles`).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         pub n_clusters: Option<usize>,
@@ -610,95 +514,38 @@ pub struct PlotSpec {
     pub y_label: Option<String>,
 }
 
-/// The resolved pipeline of a BDT method.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Pipeline {
-    pub keypoints: KeypointOptions,
-    pub transfer: TransferOptions,
-    /// Select from the first m deformed poses only.
-    pub selection_poses: Option<usize>,
-    /// Target key points (identity or automatic, optional noise).
-    pub target: TargetPoints,
-}
-
-/// A resolved method: one variant per pipeline, with its parameters.
+/// A resolved method: a library value ([`crate::methods`]).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Method {
-    /// BDT with automatic key points.
-    Bdt { pipeline: Pipeline },
-    /// BDT with `count` random key points drawn with `seed` from `pool`.
-    BdtRandom {
-        pipeline: Pipeline,
-        count: usize,
-        seed: u64,
-        pool: PoolSpec,
-    },
-    /// BDT with `count` geodesic extremities, jittered by up to `jitter`
-    /// (√area units) with `seed`.
-    BdtExtremity {
-        pipeline: Pipeline,
-        count: usize,
-        strategy: StrategySpec,
-        jitter: f64,
-        seed: u64,
-    },
+    /// A transfer to a target, measured against its ground truth (BDT,
+    /// its simulated users, the Sumner and cage baselines, `identity`).
+    Transfer(TransferMethod),
     /// Rotation-group clustering of the source (no transfer).
-    Clustering {
-        pipeline: Pipeline,
-        handles: usize,
-        features: GroupFeatures,
-        examples: ExamplesSpec,
-        n_clusters: Option<usize>,
-        seed: u64,
-    },
-    /// FBT ([`super::fbt`]); `pipeline` is unused.
+    Clustering(Clustering),
+    /// FBT ([`super::fbt`]).
     Fbt {
-        pipeline: Pipeline,
         spec: super::fbt::FbtSpec,
         seed: u64,
     },
-    /// Sumner DT with the automatic key points (selected with `pipeline`)
-    /// as markers.
-    Sumner { pipeline: Pipeline },
-    /// Sumner DT with the identity triangle correspondence.
-    SumnerOracle { pipeline: Pipeline },
-    /// Cage DT with the automatic key points as markers.
-    Cage { pipeline: Pipeline },
 }
 
 impl Method {
-    /// The pipeline options of the method.
-    pub fn pipeline(&self) -> &Pipeline {
-        match self {
-            Method::Bdt { pipeline }
-            | Method::BdtRandom { pipeline, .. }
-            | Method::BdtExtremity { pipeline, .. }
-            | Method::Clustering { pipeline, .. }
-            | Method::Fbt { pipeline, .. }
-            | Method::Sumner { pipeline }
-            | Method::SumnerOracle { pipeline }
-            | Method::Cage { pipeline } => pipeline,
-        }
-    }
-
     /// Short kind name (as in the config).
     pub fn kind_name(&self) -> &'static str {
         match self {
-            Method::Bdt { .. } => "bdt",
-            Method::BdtRandom { .. } => "bdt_random",
-            Method::BdtExtremity { .. } => "bdt_extremity",
-            Method::Clustering { .. } => "clustering",
+            Method::Transfer(t) => t.kind_name(),
+            Method::Clustering(_) => "clustering",
             Method::Fbt { .. } => "fbt",
-            Method::Sumner { .. } => "sumner",
-            Method::SumnerOracle { .. } => "sumner_oracle",
-            Method::Cage { .. } => "cage",
         }
     }
 
     /// Whether the method transfers to a target (and is measured against a
     /// ground truth).
     pub fn transfers(&self) -> bool {
-        !matches!(self, Method::Clustering { .. } | Method::Fbt { .. })
+        match self {
+            Method::Transfer(_) => true,
+            Method::Clustering(_) | Method::Fbt { .. } => false,
+        }
     }
 }
 
@@ -1071,22 +918,20 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
             gamma_logr, gamma_s, n_groups, use_ediff, lambda, max_swap_passes, kmeans_sample,
             arap_max_iter, selection_poses, frame, refine, target_weights,
             target_correspondence, target_noise, target_noise_seed);
-        let pipeline = pipeline(&pipe, config.seed, path, i)?;
+        let bdt = bdt_options(&pipe, config.seed, path, i)?;
+        let target = target_points(&pipe, &bdt, path, i)?;
         let seed = pipe.seed.unwrap_or(config.seed);
         if m.kind != MethodKind::Fbt {
             not_for("fbt", m.fbt.is_some())?;
         }
-        if matches!(
-            m.kind,
-            MethodKind::Fbt | MethodKind::Clustering | MethodKind::SumnerOracle
-        ) {
+        let no_target_keys = || -> Result<()> {
             not_for(
                 "target_correspondence",
                 pipe.target_correspondence.is_some(),
             )?;
             not_for("target_noise", pipe.target_noise.is_some())?;
-            not_for("target_noise_seed", pipe.target_noise_seed.is_some())?;
-        }
+            not_for("target_noise_seed", pipe.target_noise_seed.is_some())
+        };
         // Keys of the simulated users and of clustering, which the FBT and
         // baseline kinds do not take.
         let no_bdt_user_keys = || -> Result<()> {
@@ -1099,9 +944,13 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
             not_for("examples", m.examples.is_some())?;
             not_for("n_clusters", m.n_clusters.is_some())
         };
+        let automatic = KeypointSource::Automatic {
+            selection_poses: pipe.selection_poses,
+        };
         let method = match m.kind {
             MethodKind::Fbt => {
                 no_bdt_user_keys()?;
+                no_target_keys()?;
                 let spec = m.fbt.clone().ok_or_else(|| {
                     bad(
                         path,
@@ -1111,23 +960,45 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
                 })?;
                 spec.check()
                     .map_err(|(k, msg)| bad(path, key(&format!("fbt.{k}")), msg))?;
-                Method::Fbt {
-                    pipeline,
-                    spec,
-                    seed,
-                }
+                Method::Fbt { spec, seed }
             }
-            MethodKind::Sumner | MethodKind::SumnerOracle | MethodKind::Cage => {
+            MethodKind::Identity => {
+                // Pipeline keys inherited from [defaults] do not apply and
+                // are ignored; set on the entry itself they are an error.
                 no_bdt_user_keys()?;
-                match m.kind {
-                    MethodKind::Sumner => Method::Sumner { pipeline },
-                    MethodKind::SumnerOracle => Method::SumnerOracle { pipeline },
-                    _ => Method::Cage { pipeline },
-                }
+                not_for("target_correspondence", m.target_correspondence.is_some())?;
+                not_for("target_noise", m.target_noise.is_some())?;
+                not_for("target_noise_seed", m.target_noise_seed.is_some())?;
+                Method::Transfer(TransferMethod::Identity)
+            }
+            MethodKind::SumnerOracle => {
+                no_bdt_user_keys()?;
+                no_target_keys()?;
+                Method::Transfer(TransferMethod::SumnerOracle)
+            }
+            MethodKind::Sumner => {
+                no_bdt_user_keys()?;
+                Method::Transfer(TransferMethod::Sumner {
+                    keypoints: automatic,
+                    target,
+                    options: bdt.keypoints,
+                })
+            }
+            MethodKind::Cage => {
+                no_bdt_user_keys()?;
+                Method::Transfer(TransferMethod::Cage {
+                    keypoints: automatic,
+                    target,
+                    options: bdt.keypoints,
+                })
             }
             MethodKind::Bdt => {
                 no_bdt_user_keys()?;
-                Method::Bdt { pipeline }
+                Method::Transfer(TransferMethod::Bdt {
+                    keypoints: automatic,
+                    target,
+                    options: bdt,
+                })
             }
             MethodKind::BdtRandom => {
                 not_for("strategy", m.strategy.is_some())?;
@@ -1138,12 +1009,15 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
                 not_for("n_clusters", m.n_clusters.is_some())?;
                 not_for("selection_poses", pipe.selection_poses.is_some())?;
                 let count = keypoint_count()?;
-                Method::BdtRandom {
-                    pipeline,
-                    count,
-                    seed,
-                    pool: m.pool.unwrap_or(PoolSpec::Candidates),
-                }
+                Method::Transfer(TransferMethod::Bdt {
+                    keypoints: KeypointSource::Random {
+                        count,
+                        seed,
+                        pool: m.pool.unwrap_or_default(),
+                    },
+                    target,
+                    options: bdt,
+                })
             }
             MethodKind::BdtExtremity => {
                 not_for("pool", m.pool.is_some())?;
@@ -1157,35 +1031,40 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
                 if !(jitter.is_finite() && jitter >= 0.0) {
                     return Err(bad(path, key("jitter"), "expected a finite number ≥ 0"));
                 }
-                Method::BdtExtremity {
-                    pipeline,
-                    count,
-                    strategy: m.strategy.unwrap_or(StrategySpec::CentroidFps),
-                    jitter,
-                    seed,
-                }
+                Method::Transfer(TransferMethod::Bdt {
+                    keypoints: KeypointSource::Extremity {
+                        count,
+                        strategy: m.strategy.unwrap_or_default(),
+                        jitter,
+                        seed,
+                    },
+                    target,
+                    options: bdt,
+                })
             }
             MethodKind::Clustering => {
                 not_for("count", m.count.is_some())?;
                 not_for("pool", m.pool.is_some())?;
                 not_for("strategy", m.strategy.is_some())?;
                 not_for("jitter", m.jitter.is_some())?;
-                let handles = m.handles.unwrap_or(12);
+                no_target_keys()?;
+                let d = Clustering::default();
+                let handles = m.handles.unwrap_or(d.handles);
                 if handles == 0 {
                     return Err(bad(path, key("handles"), "expected at least 1"));
                 }
                 if m.n_clusters == Some(0) {
                     return Err(bad(path, key("n_clusters"), "expected at least 1"));
                 }
-                let f = m.features.unwrap_or(FeaturesSpec::Augmented);
-                Method::Clustering {
-                    features: features(f, &pipe),
-                    pipeline,
+                Method::Clustering(Clustering {
                     handles,
-                    examples: m.examples.unwrap_or(ExamplesSpec::All),
+                    features: features(m.features, &pipe),
+                    examples: m.examples.unwrap_or(d.examples),
                     n_clusters: m.n_clusters,
                     seed,
-                }
+                    mode: bdt.keypoints.mode,
+                    weights: bdt.keypoints.weights,
+                })
             }
         };
         out.push(NamedMethod {
@@ -1207,32 +1086,27 @@ fn kind_str(k: MethodKind) -> &'static str {
         MethodKind::Sumner => "sumner",
         MethodKind::SumnerOracle => "sumner_oracle",
         MethodKind::Cage => "cage",
+        MethodKind::Identity => "identity",
     }
 }
 
-fn features(f: FeaturesSpec, p: &PipelineSpec) -> GroupFeatures {
-    let gamma_logr = p.gamma_logr.unwrap_or(1.0);
-    let gamma_s = p.gamma_s.unwrap_or(0.1);
-    match f {
-        FeaturesSpec::Weights => GroupFeatures::Weights,
-        FeaturesSpec::RotationScale => GroupFeatures::RotationScale {
-            gamma_logr,
-            gamma_s,
-        },
-        FeaturesSpec::Augmented => GroupFeatures::Augmented {
-            gamma_logr,
-            gamma_s,
-        },
-    }
+/// Group features: `kind` (default: the library's, [`GroupFeatures::default`])
+/// with the pipeline's γ (default: the paper's).
+fn features(kind: Option<FeatureKind>, p: &PipelineSpec) -> GroupFeatures {
+    GroupFeatures::new(
+        kind.unwrap_or_default(),
+        p.gamma_logr.unwrap_or(GroupFeatures::GAMMA_LOGR),
+        p.gamma_s.unwrap_or(GroupFeatures::GAMMA_S),
+    )
 }
 
-fn pipeline(p: &PipelineSpec, seed: u64, path: &Path, i: usize) -> Result<Pipeline> {
+/// The BDT options of a method: every key not set falls back to
+/// [`BdtOptions::default`] (the CLI's defaults too), the seed to the
+/// config's.
+fn bdt_options(p: &PipelineSpec, seed: u64, path: &Path, i: usize) -> Result<BdtOptions> {
     let key = |k: &str| format!("methods[{i}].{k} (or defaults.{k})");
-    let d = KeypointOptions::default();
-    let mode = match p.mode.unwrap_or(ModeSpec::Exact) {
-        ModeSpec::Exact => SelectionMode::Exact,
-        ModeSpec::Fast => SelectionMode::Fast,
-    };
+    let d = BdtOptions::default();
+    let dk = &d.keypoints;
     let positive = |k: &str, v: Option<usize>| -> Result<()> {
         if v == Some(0) {
             Err(bad(path, key(k), "expected at least 1"))
@@ -1261,55 +1135,58 @@ fn pipeline(p: &PipelineSpec, seed: u64, path: &Path, i: usize) -> Result<Pipeli
             }
         }
     }
-    let mut arap = d.arap.clone();
+    let mut arap = dk.arap.clone();
     arap.lambda = p.lambda.unwrap_or(arap.lambda);
     arap.use_ediff = p.use_ediff.unwrap_or(arap.use_ediff);
     let fast = FastOptions {
-        kmeans_sample: p.kmeans_sample.unwrap_or(d.fast.kmeans_sample),
-        arap_max_iter: p.arap_max_iter.unwrap_or(d.fast.arap_max_iter),
-        ..d.fast.clone()
+        kmeans_sample: p.kmeans_sample.unwrap_or(dk.fast.kmeans_sample),
+        arap_max_iter: p.arap_max_iter.unwrap_or(dk.fast.arap_max_iter),
+        ..dk.fast.clone()
+    };
+    let groups = match p.groups {
+        Some(kind) => features(Some(kind), p),
+        None => match dk.groups {
+            // The library default with this pipeline's γ.
+            GroupFeatures::Weights => GroupFeatures::Weights,
+            GroupFeatures::RotationScale { .. } => features(Some(FeatureKind::RotationScale), p),
+            GroupFeatures::Augmented { .. } => features(Some(FeatureKind::Augmented), p),
+        },
     };
     let keypoints = KeypointOptions {
-        n_candidates: p.n_candidates.unwrap_or(d.n_candidates),
+        n_candidates: p.n_candidates.unwrap_or(dk.n_candidates),
         seed: p.seed.unwrap_or(seed),
-        epsilon: p.epsilon.unwrap_or(d.epsilon),
-        max_keypoints: p.max_keypoints.unwrap_or(d.max_keypoints),
-        mode,
-        fps: match p.fps.unwrap_or(FpsSpec::Geodesic) {
-            FpsSpec::Geodesic => FpsMetric::Geodesic,
-            FpsSpec::Euclidean => FpsMetric::Euclidean,
-        },
-        groups: features(p.groups.unwrap_or(FeaturesSpec::Augmented), p),
-        n_groups: p.n_groups,
+        epsilon: p.epsilon.unwrap_or(dk.epsilon),
+        max_keypoints: p.max_keypoints.unwrap_or(dk.max_keypoints),
+        mode: p.mode.unwrap_or(dk.mode),
+        fps: p.fps.unwrap_or(dk.fps),
+        groups,
+        n_groups: p.n_groups.or(dk.n_groups),
         arap,
-        max_swap_passes: p.max_swap_passes.unwrap_or(d.max_swap_passes),
-        error_norm: match p.error_norm.unwrap_or(ErrorNormSpec::Paper) {
-            ErrorNormSpec::Paper => ErrorNorm::Paper,
-            ErrorNormSpec::Rms => ErrorNorm::Rms,
-        },
+        max_swap_passes: p.max_swap_passes.unwrap_or(dk.max_swap_passes),
+        error_norm: p.error_norm.unwrap_or(dk.error_norm),
         fast,
-        ..d
+        ..dk.clone()
     };
-    let weight_kind = match p.target_weights.unwrap_or(TargetWeightsSpec::Auto) {
-        TargetWeightsSpec::Bounded => TargetWeights::Bounded,
-        TargetWeightsSpec::Fast => TargetWeights::Fast(keypoints.fast.bounds),
-        TargetWeightsSpec::Auto => match mode {
-            SelectionMode::Fast => TargetWeights::Fast(keypoints.fast.bounds),
-            SelectionMode::Exact => TargetWeights::Bounded,
-        },
-    };
-    let transfer = TransferOptions {
-        frame: match p.frame.unwrap_or(FrameSpec::Direct) {
-            FrameSpec::Direct => TransferFrame::Direct,
-            FrameSpec::HandleRelative => TransferFrame::HandleRelative,
-        },
-        weights: keypoints.weights,
-        weight_kind,
-        refine: p.refine.unwrap_or(false),
-        seed: keypoints.seed,
-        ..TransferOptions::default()
-    };
-    let noise = p.target_noise.unwrap_or(0.0);
+    Ok(BdtOptions {
+        keypoints,
+        frame: p.frame.unwrap_or(d.frame),
+        target_weights: p.target_weights.unwrap_or(d.target_weights),
+        refine: p.refine.unwrap_or(d.refine),
+    })
+}
+
+/// The target key point options of a method (defaults:
+/// [`TargetPoints::default`]; the automatic correspondence is seeded with
+/// the selection seed).
+fn target_points(
+    p: &PipelineSpec,
+    bdt: &BdtOptions,
+    path: &Path,
+    i: usize,
+) -> Result<TargetPoints> {
+    let key = |k: &str| format!("methods[{i}].{k} (or defaults.{k})");
+    let d = TargetPoints::default();
+    let noise = p.target_noise.unwrap_or(d.noise);
     if !(noise.is_finite() && (0.0..=1.0).contains(&noise)) {
         return Err(bad(
             path,
@@ -1317,17 +1194,12 @@ fn pipeline(p: &PipelineSpec, seed: u64, path: &Path, i: usize) -> Result<Pipeli
             format!("expected a radius in [0, 1] (√area units), got {noise}"),
         ));
     }
-    Ok(Pipeline {
-        keypoints,
-        transfer,
-        selection_poses: p.selection_poses,
-        target: TargetPoints {
-            correspondence: p
-                .target_correspondence
-                .unwrap_or(TargetCorrespondenceSpec::Identity),
-            noise,
-            noise_seed: p.target_noise_seed.unwrap_or(0),
-        },
+    Ok(TargetPoints {
+        correspondence: p.target_correspondence.clone().unwrap_or(d.correspondence),
+        landmarks: d.landmarks,
+        seed: bdt.keypoints.seed,
+        noise,
+        noise_seed: p.target_noise_seed.unwrap_or(d.noise_seed),
     })
 }
 
@@ -1345,19 +1217,11 @@ impl Config {
     /// FNV-1a 64 of the canonical JSON of [`Config::hashed_part`], as 16 hex digits.
     pub fn hash(&self) -> String {
         let json = serde_json::to_string(&self.hashed_part()).unwrap_or_default();
-        format!("{:016x}", fnv1a(json.as_bytes()))
+        format!("{:016x}", crate::data::fnv1a(json.as_bytes()))
     }
 }
 
-/// FNV-1a 64-bit hash.
-pub fn fnv1a(bytes: &[u8]) -> u64 {
-    let mut h: u64 = 0xcbf29ce484222325;
-    for b in bytes {
-        h ^= u64::from(*b);
-        h = h.wrapping_mul(0x100000001b3);
-    }
-    h
-}
+pub use crate::data::fnv1a;
 
 #[cfg(test)]
 mod tests {

@@ -48,8 +48,7 @@ use serde::{Deserialize, Serialize};
 use super::cases::Case;
 use super::config::{fnv1a, MetricsSpec};
 use super::dataset::Collection;
-use super::methods::RenderOut;
-use super::store::{num, secs, CaseResult, Curve};
+use super::store::{num, secs, CaseResult, Curve, RenderOut};
 use crate::baselines::{amberg_nicp, AmbergOptions, DerModel, DerOptions};
 use crate::data::partial::{feature_points, make_partial, PartialOptions};
 use crate::eval::{

@@ -1,6 +1,7 @@
 //! Experiment harness: TOML configs ([`config`]), datasets and cases
-//! ([`dataset`], [`cases`]), methods run on cases ([`methods`]; FBT
-//! registration experiments in [`fbt`]), the
+//! ([`dataset`], [`cases`]), the methods of [`crate::methods`] run on
+//! cases and recorded ([`record`]; FBT registration experiments in
+//! [`fbt`]), the
 //! resumable result store ([`store`]), the suite runner with sharding and
 //! merging ([`runner`]) and the plots regenerated from stored results
 //! ([`plots`]). This layer (with `data`, `mesh::io` and `plot`) is the only
@@ -13,8 +14,8 @@ pub mod cases;
 pub mod config;
 pub mod dataset;
 pub mod fbt;
-pub mod methods;
 pub mod plots;
+pub mod record;
 pub mod runner;
 pub mod store;
 

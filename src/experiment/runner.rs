@@ -22,8 +22,8 @@ use serde::{Deserialize, Serialize};
 use super::cases::{generate_cases, Case};
 use super::config::{load_config, LoadedConfig, NamedMethod};
 use super::dataset::Collection;
-use super::methods::{run_method, RenderOut};
-use super::store::{secs, CaseResult, Store, StoredConfig};
+use super::record::run_method;
+use super::store::{secs, CaseResult, RenderOut, Store, StoredConfig};
 use crate::mesh::io::write_ply;
 use crate::{Error, Result};
 

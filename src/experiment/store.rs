@@ -197,6 +197,25 @@ fn tmp_name(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.{}.{n}.tmp", std::process::id()))
 }
 
+/// Where a render case's meshes go (`None`: not a render case).
+pub struct RenderOut<'a> {
+    pub dir: &'a Path,
+    /// Deformed poses saved (the first ones of the case).
+    pub poses: usize,
+}
+
+/// Saves a render mesh (PLY) unless `path` exists (a stored result is never
+/// overwritten).
+pub fn save_mesh(path: &Path, mesh: &crate::mesh::Mesh) -> Result<()> {
+    if path.exists() {
+        return Ok(());
+    }
+    if let Some(d) = path.parent() {
+        std::fs::create_dir_all(d).map_err(|e| Error::io(d, e))?;
+    }
+    crate::mesh::io::write_ply(path, mesh)
+}
+
 /// Writes `bytes` to a temporary file, syncs it and moves it to `path`.
 /// `clobber = false`: fails with `Ok(false)` (file left alone) if `path`
 /// exists. Returns whether the file was written.

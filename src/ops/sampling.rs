@@ -16,7 +16,18 @@ use crate::ops::geodesic::EdgeGraph;
 use crate::{Error, Result};
 
 /// Distance used by farthest point sampling.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Default,
+    serde::Deserialize,
+    serde::Serialize,
+    clap::ValueEnum,
+)]
+#[serde(rename_all = "snake_case")]
 pub enum FpsMetric {
     /// Straight-line distance between vertex positions.
     #[default]

@@ -111,7 +111,18 @@ use crate::solve::{sparse_from_triplets, SparseCholesky, SparseMatrix};
 use crate::{Error, Result};
 
 /// Which weights to compute (see the module documentation).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Default,
+    serde::Deserialize,
+    serde::Serialize,
+    clap::ValueEnum,
+)]
+#[serde(rename_all = "snake_case")]
 pub enum WeightMode {
     /// BDT Eq. 1: bounds and partition of unity enforced together (active
     /// set on the row supports, started from the PerHandle weights).
@@ -121,6 +132,8 @@ pub enum WeightMode {
     PerHandle,
     /// Biharmonic weights with the interpolation constraints only (ablation);
     /// they sum to one but may leave [0, 1].
+    #[value(skip)]
+    #[serde(skip)]
     Unbounded,
 }
 

@@ -35,14 +35,61 @@ pub enum GroupFeatures {
 impl GroupFeatures {
     /// The paper's defaults `γ_logr = 1`, `γ_s = 0.1` for `W′`.
     pub const AUGMENTED: GroupFeatures = GroupFeatures::Augmented {
-        gamma_logr: 1.0,
-        gamma_s: 0.1,
+        gamma_logr: GroupFeatures::GAMMA_LOGR,
+        gamma_s: GroupFeatures::GAMMA_S,
     };
     /// The paper's defaults for the features without `W`.
     pub const ROTATION_SCALE: GroupFeatures = GroupFeatures::RotationScale {
-        gamma_logr: 1.0,
-        gamma_s: 0.1,
+        gamma_logr: GroupFeatures::GAMMA_LOGR,
+        gamma_s: GroupFeatures::GAMMA_S,
     };
+}
+
+/// Which features, without their weights γ (the config key `groups` /
+/// `features`). [`GroupFeatures::new`] adds the γ.
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Default,
+    serde::Deserialize,
+    serde::Serialize,
+    clap::ValueEnum,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum FeatureKind {
+    /// `W` only.
+    Weights,
+    /// `[logr, s]` only.
+    RotationScale,
+    /// `W′ = [W, logr, s]` (BDT Eq. 15).
+    #[default]
+    Augmented,
+}
+
+impl GroupFeatures {
+    /// The paper's `γ_logr`.
+    pub const GAMMA_LOGR: f64 = 1.0;
+    /// The paper's `γ_s`.
+    pub const GAMMA_S: f64 = 0.1;
+
+    /// Features of `kind` with the weights `γ_logr`, `γ_s` (ignored for
+    /// [`FeatureKind::Weights`]).
+    pub fn new(kind: FeatureKind, gamma_logr: f64, gamma_s: f64) -> GroupFeatures {
+        match kind {
+            FeatureKind::Weights => GroupFeatures::Weights,
+            FeatureKind::RotationScale => GroupFeatures::RotationScale {
+                gamma_logr,
+                gamma_s,
+            },
+            FeatureKind::Augmented => GroupFeatures::Augmented {
+                gamma_logr,
+                gamma_s,
+            },
+        }
+    }
 }
 
 impl Default for GroupFeatures {

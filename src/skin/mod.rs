@@ -7,5 +7,5 @@ pub mod groups;
 pub mod lbo;
 pub mod lbs;
 
-pub use groups::{rotation_groups, GroupFeatures};
+pub use groups::{rotation_groups, FeatureKind, GroupFeatures};
 pub use lbs::{lbs, transforms_from_stacked, transforms_to_stacked, Affine, LbsMatrix};

@@ -68,8 +68,19 @@ use crate::transfer::keypoints::{FastBounds, GreenBasis};
 use crate::{Error, Point, Result};
 
 /// How the source transforms are placed on the target (see the module
-/// documentation).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// documentation). Configs write `handle_relative`, the CLI `handle-relative`.
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    serde::Deserialize,
+    serde::Serialize,
+    clap::ValueEnum,
+)]
+#[serde(rename_all = "snake_case")]
 pub enum TransferFrame {
     /// `T_k` applied to `B` as is (A and B in one frame; the paper).
     #[default]
@@ -89,14 +100,44 @@ impl TransferFrame {
 }
 
 /// Which skinning weights are computed on the target.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Default,
+    serde::Deserialize,
+    serde::Serialize,
+    clap::ValueEnum,
+)]
+#[serde(rename_all = "snake_case")]
 pub enum TargetWeights {
-    /// Bounded biharmonic weights with [`TransferOptions::weights`] (BDT Eq. 1).
+    /// The weights the transforms were fitted with on the source: bounded
+    /// for an exact selection, fast for a fast one ([`TargetWeights::resolve`]).
     #[default]
+    Auto,
+    /// Bounded biharmonic weights with [`TransferOptions::weights`] (BDT Eq. 1).
     Bounded,
-    /// Unbounded biharmonic weights made admissible by `bounds` (the weights
-    /// of [`crate::transfer::SelectionMode::Fast`]).
-    Fast(FastBounds),
+    /// Unbounded biharmonic weights made admissible by
+    /// [`TransferOptions::fast_bounds`] (the weights of
+    /// [`crate::transfer::SelectionMode::Fast`]).
+    Fast,
+}
+
+impl TargetWeights {
+    /// `Auto` made concrete for transforms fitted in `mode`.
+    pub fn resolve(self, mode: crate::transfer::SelectionMode) -> TargetWeights {
+        use crate::transfer::SelectionMode;
+        match self {
+            TargetWeights::Auto => match mode {
+                SelectionMode::Exact => TargetWeights::Bounded,
+                SelectionMode::Fast => TargetWeights::Fast,
+            },
+            TargetWeights::Bounded => TargetWeights::Bounded,
+            TargetWeights::Fast => TargetWeights::Fast,
+        }
+    }
 }
 
 /// Options of [`transfer`].
@@ -107,8 +148,11 @@ pub struct TransferOptions {
     /// Bounded biharmonic weights on `B` (use the same options as the key
     /// point fitting on `A` so that `A → A` reproduces the fit exactly).
     pub weights: BbwOptions,
-    /// Bounded (default) or fast-mode weights on `B`.
+    /// Bounded (default) or fast-mode weights on `B`; `Auto` must be
+    /// resolved first ([`TargetWeights::resolve`]).
     pub weight_kind: TargetWeights,
+    /// Bounds of fast-mode weights on `B`.
+    pub fast_bounds: FastBounds,
     /// Run the ARAP refinement on `B` after LBS.
     pub refine: bool,
     /// Refinement solver options. `use_ediff: false` (default): handle
@@ -131,6 +175,7 @@ impl Default for TransferOptions {
             frame: TransferFrame::Direct,
             weights: BbwOptions::default(),
             weight_kind: TargetWeights::Bounded,
+            fast_bounds: FastBounds::ClampNormalize,
             refine: false,
             arap: ArapOptions {
                 use_ediff: false,
@@ -209,8 +254,14 @@ pub fn transfer_detailed(
     let bih = Biharmonic::new(target)?;
     let weights = match opts.weight_kind {
         TargetWeights::Bounded => bih.weights(target_keypoints, &opts.weights)?,
-        TargetWeights::Fast(bounds) => {
-            GreenBasis::new(&bih, target_keypoints)?.weights(target_keypoints, bounds)?
+        TargetWeights::Fast => {
+            GreenBasis::new(&bih, target_keypoints)?.weights(target_keypoints, opts.fast_bounds)?
+        }
+        TargetWeights::Auto => {
+            return Err(Error::invalid(
+                "target weights `auto` follow the selection mode of the fit: resolve them \
+                 with TargetWeights::resolve before the transfer",
+            ))
         }
     };
     if weights.iter().any(|w| !w.is_finite()) {

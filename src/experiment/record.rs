@@ -1,0 +1,417 @@
+//! Running one method ([`crate::methods`]) on one case and recording what
+//! it computed: the only code (with [`super::fbt`] for the FBT rows) that
+//! knows the `cases.csv` column names.
+//!
+//! Measured quantities (columns of `cases.csv`, see [`super::store`]):
+//!
+//! * `err_*_unit` / `err_*_area`: per-vertex Euclidean distance between each
+//!   transferred mesh `B′_j` and the ground truth, pooled over all vertices
+//!   of all poses of the case (mean, RMS, max), in unit-sphere units of the
+//!   target reference `B` and in √area(B) units ([`crate::eval`]); after a
+//!   rigid Procrustes alignment of each `B′_j` onto its truth when
+//!   `[metrics] procrustes = true` (column `procrustes`).
+//! * `fit_error_unit`: the same mean distance between `D_S(A)` (the fit on
+//!   the source) and `A′_j`, in unit-sphere units of `A`.
+//! * `selection_error`: the selection's own error (its `error_norm`).
+//! * `arap_energy` / `arap_energy_truth`: relative ARAP energy of `B′_j`
+//!   (resp. the ground truth) against `B`, mean over poses.
+//! * `distortion_area` / `distortion_edge`: area-weighted mean `|log|` face
+//!   area ratio and RMS log edge length ratio of `B′_j` against `B`; curve
+//!   `distortion_area`: fraction of faces with `|log(A′/A)| ≤` bound.
+//! * clustering: `ari`, `purity` against the dataset's true labels (synthetic
+//!   set), `rigidity_unit` (RMS residual of the best rigid motion of each
+//!   cluster onto every deformed pose, unit-sphere units of `A`).
+//! * target key points (issue 8): `target_correspondence` (`identity`:
+//!   target vertex = source vertex, or `auto`: registration of A onto B,
+//!   [`crate::transfer::auto`]), `target_noise` (geodesic noise radius,
+//!   √area(B) units, [`crate::transfer::perturb_keypoints`] seeded with
+//!   `target_noise_seed`), `target_keypoints` (the target vertices used),
+//!   `target_keypoint_error_area` (mean edge-path distance on B between the
+//!   used and the true target key points, √area(B) units; only when B
+//!   shares A's faces, where the truth is the source index),
+//!   `registration_residual_area` (symmetric mean closest-point distance of
+//!   the registered A to B), `target_frame` (`source`: A and B in one frame,
+//!   transforms applied as fitted; `registration`: the frames differ and the
+//!   transforms are re-expressed in B's frame by the coarse alignment,
+//!   [`crate::transfer::auto`]) and `seconds_correspondence`.
+//! * timings: `seconds_selection`, `seconds_fit`, `seconds_weights` (target
+//!   weights), `seconds_weights_per_handle` (BDT Table 1 "SWT/h"),
+//!   `seconds_lbs` and `seconds_lbs_per_pose` (Table 1 "LBS time"),
+//!   `seconds_refine`, `seconds_metrics`, `seconds_total`.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use super::cases::Case;
+use super::config::{Method, MetricsSpec, NamedMethod};
+use super::dataset::Collection;
+use super::store::{num, save_mesh, secs, CaseResult, Curve, RenderOut};
+use crate::eval::{
+    aligned_vertex_errors, arap_energy, cluster_rigidity_rms, cumulative_curve, curve_grid,
+    distortion, error_stats, face_log_area_ratios, vertex_errors, ErrorScale,
+};
+use crate::mesh::Mesh;
+use crate::methods::{
+    Clustering, PickedKeypoints, TargetCorrespondence, TargetFound, TransferCase, TransferMethod,
+    TransferOutcome,
+};
+use crate::ops::geodesic::EdgeGraph;
+use crate::ops::total_area;
+use crate::Result;
+
+/// The meshes of a case.
+pub struct CaseMeshes {
+    pub a: Arc<Mesh>,
+    pub a_def: Vec<Arc<Mesh>>,
+    pub b: Arc<Mesh>,
+    pub truth: Vec<Option<Arc<Mesh>>>,
+}
+
+impl CaseMeshes {
+    pub fn load(col: &Collection, case: &Case) -> Result<Self> {
+        let a = col.mesh(&case.source, &case.reference)?;
+        let a_def = case
+            .poses
+            .iter()
+            .map(|p| col.mesh(&case.source, p))
+            .collect::<Result<Vec<_>>>()?;
+        let b = col.mesh(&case.target, &case.reference)?;
+        let truth = case
+            .poses
+            .iter()
+            .zip(&case.truth)
+            .map(|(p, &has)| {
+                if has {
+                    col.mesh(&case.target, p).map(Some)
+                } else {
+                    Ok(None)
+                }
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(CaseMeshes { a, a_def, b, truth })
+    }
+}
+
+/// Runs `m` on `case`; an `Err` is a failure of the method on this case
+/// (recorded as the row's status by the caller).
+pub fn run_method(
+    col: &Collection,
+    case: &Case,
+    m: &NamedMethod,
+    metrics: &MetricsSpec,
+    render: Option<&RenderOut>,
+    out: &mut CaseResult,
+) -> Result<()> {
+    let t_total = Instant::now();
+    match &m.method {
+        Method::Fbt { spec, seed } => {
+            let render = render.map(|r| (r, m.name.as_str()));
+            super::fbt::run(col, case, spec, *seed, metrics, render, out)?;
+        }
+        Method::Transfer(t) => {
+            let cm = CaseMeshes::load(col, case)?;
+            out.set("n_vertices", cm.a.n_vertices().to_string());
+            transfer(&cm, case, t, &m.name, metrics, render, out)?;
+        }
+        Method::Clustering(c) => {
+            let cm = CaseMeshes::load(col, case)?;
+            out.set("n_vertices", cm.a.n_vertices().to_string());
+            clustering(col, &cm, c, &m.name, render, out)?;
+        }
+    }
+    out.set("seconds_total", secs(t_total.elapsed().as_secs_f64()));
+    Ok(())
+}
+
+/// The meshes behind `Arc`s, owned.
+pub fn owned(v: &[Arc<Mesh>]) -> Vec<Mesh> {
+    v.iter().map(|m| (**m).clone()).collect()
+}
+
+fn transfer(
+    cm: &CaseMeshes,
+    case: &Case,
+    method: &TransferMethod,
+    name: &str,
+    metrics: &MetricsSpec,
+    render: Option<&RenderOut>,
+    out: &mut CaseResult,
+) -> Result<()> {
+    let a = &*cm.a;
+    let a_def = owned(&cm.a_def);
+    let b = &*cm.b;
+    let o = method.run(&TransferCase {
+        a,
+        a_def: &a_def,
+        b,
+    })?;
+    if let Some(p) = &o.keypoints {
+        record_keypoints(p, out);
+    }
+    if let (Some(found), Some(p)) = (&o.target, &o.keypoints) {
+        record_target(a, b, &p.keypoints, found, method, out)?;
+    }
+    record_timings(&o, out);
+    if let Some(fit) = &o.fit {
+        let sa = ErrorScale::of_reference(a)?;
+        let mut fit_err = 0.0;
+        for (pos, d) in fit.positions.iter().zip(&a_def) {
+            fit_err += error_stats(&vertex_errors(pos, d.vertices())?)?.mean * sa.unit_sphere;
+        }
+        out.set("fit_error_unit", num(fit_err / a_def.len() as f64));
+    }
+    if let Some(errs) = &o.cage_fit_errors {
+        let sa = ErrorScale::of_reference(a)?;
+        let s: f64 = errs.iter().map(|e| e * sa.unit_sphere).sum();
+        out.set("fit_error_unit", num(s / errs.len().max(1) as f64));
+    }
+    if let Some(d) = o.frames_differ {
+        out.set(
+            "target_frame",
+            if d { "registration" } else { "source" }.to_string(),
+        );
+    }
+
+    measure(b, &o.meshes, &cm.truth, metrics, out)?;
+
+    if let Some(r) = render {
+        let dir = r.dir.join(name);
+        if let Some(reg) = o.target.as_ref().and_then(|f| f.auto.as_ref()) {
+            save_mesh(&dir.join("registered.ply"), &reg.registered)?;
+        }
+        for (j, pose) in case.poses.iter().enumerate().take(r.poses) {
+            save_mesh(&dir.join(format!("result_{pose}.ply")), &o.meshes[j])?;
+            if let Some(fit) = &o.fit {
+                let fitted = a.with_vertices(fit.positions[j].clone())?;
+                save_mesh(&dir.join(format!("fit_{pose}.ply")), &fitted)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `seconds_*` of a transfer.
+fn record_timings(o: &TransferOutcome, out: &mut CaseResult) {
+    let t = &o.timings;
+    let n_kp = o.keypoints.as_ref().map_or(0, |p| p.keypoints.len());
+    let set = |out: &mut CaseResult, k: &str, v: Option<f64>| {
+        if let Some(v) = v {
+            out.set(k, secs(v));
+        }
+    };
+    set(out, "seconds_fit", t.fit);
+    set(out, "seconds_weights", t.weights);
+    set(
+        out,
+        "seconds_weights_per_handle",
+        t.weights.map(|w| w / n_kp.max(1) as f64),
+    );
+    set(out, "seconds_lbs", t.lbs);
+    set(
+        out,
+        "seconds_lbs_per_pose",
+        t.lbs.map(|l| l / o.meshes.len().max(1) as f64),
+    );
+    set(out, "seconds_refine", t.refine);
+    set(out, "seconds_precompute", t.precompute);
+    set(out, "seconds_factorise", t.factorise);
+    set(out, "seconds_solve", t.solve);
+}
+
+/// `n_keypoints`, `keypoints`, `seconds_selection` and, for an automatic
+/// selection, `n_selection_poses`, `selection_error`,
+/// `selection_evaluations` and the `selection_trace` curve.
+fn record_keypoints(p: &PickedKeypoints, out: &mut CaseResult) {
+    out.set("seconds_selection", secs(p.seconds));
+    if let Some((sel, k)) = &p.selection {
+        out.set("n_selection_poses", k.to_string());
+        out.set("selection_error", num(sel.error));
+        out.set("selection_evaluations", sel.evaluations.to_string());
+        let (x, y): (Vec<f64>, Vec<f64>) = sel
+            .trace
+            .iter()
+            .filter(|s| s.stage == 1)
+            .map(|s| (s.keypoints.len() as f64, s.error))
+            .unzip();
+        out.curves.push(Curve::new("selection_trace", &x, &y));
+    }
+    out.set("n_keypoints", p.keypoints.len().to_string());
+    out.set("keypoints", join(&p.keypoints));
+}
+
+fn join(v: &[usize]) -> String {
+    v.iter()
+        .map(|k| k.to_string())
+        .collect::<Vec<_>>()
+        .join(";")
+}
+
+/// The `target_*` columns (see the module documentation).
+fn record_target(
+    a: &Mesh,
+    b: &Mesh,
+    keypoints: &[usize],
+    found: &TargetFound,
+    method: &TransferMethod,
+    out: &mut CaseResult,
+) -> Result<()> {
+    let target = match method {
+        TransferMethod::Bdt { target, .. }
+        | TransferMethod::Sumner { target, .. }
+        | TransferMethod::Cage { target, .. } => target,
+        TransferMethod::Identity | TransferMethod::SumnerOracle => return Ok(()),
+    };
+    let name = match &target.correspondence {
+        TargetCorrespondence::Identity => "identity",
+        TargetCorrespondence::Auto => "auto",
+        TargetCorrespondence::List(_) => "list",
+        TargetCorrespondence::Markers { .. } => "markers",
+    };
+    out.set("target_correspondence", name.to_string());
+    if let Some(r) = &found.auto {
+        out.set("registration_residual_area", num(r.residual));
+    }
+    out.set("target_noise", num(target.noise));
+    out.set("seconds_correspondence", secs(found.seconds));
+    out.set("target_keypoints", join(&found.keypoints));
+    if a.faces() == b.faces() {
+        let graph = EdgeGraph::new(b);
+        let s = total_area(b).sqrt();
+        let mut sum = 0.0;
+        for (&k, &t) in keypoints.iter().zip(&found.keypoints) {
+            sum += graph.distances(&[k])?[t] / s;
+        }
+        out.set(
+            "target_keypoint_error_area",
+            num(sum / keypoints.len().max(1) as f64),
+        );
+    }
+    Ok(())
+}
+
+/// Metrics of the transferred meshes `results` (one per pose) of the target
+/// reference `b` against the ground truths (see the module documentation).
+pub(super) fn measure(
+    b: &Mesh,
+    results: &[Mesh],
+    truth: &[Option<Arc<Mesh>>],
+    metrics: &MetricsSpec,
+    out: &mut CaseResult,
+) -> Result<()> {
+    let t = Instant::now();
+    let sb = ErrorScale::of_reference(b)?;
+    let procrustes = metrics.procrustes();
+    out.set("procrustes", procrustes.to_string());
+    let mut pooled: Vec<f64> = Vec::new();
+    let (mut e_arap, mut e_arap_truth, mut d_area, mut d_edge) = (0.0, 0.0, 0.0, 0.0);
+    let mut n_truth = 0;
+    let mut log_area: Vec<f64> = Vec::new();
+    for (res, truth) in results.iter().zip(truth) {
+        e_arap += arap_energy(b, res.vertices())?.1;
+        log_area.extend(face_log_area_ratios(b, res.vertices())?);
+        let d = distortion(b, res.vertices())?;
+        d_area += d.area_log_mean_abs;
+        d_edge += d.edge_log_rms;
+        if let Some(truth) = truth {
+            let e = if procrustes {
+                aligned_vertex_errors(res.vertices(), truth.vertices())?
+            } else {
+                vertex_errors(res.vertices(), truth.vertices())?
+            };
+            pooled.extend(e);
+            e_arap_truth += arap_energy(b, truth.vertices())?.1;
+            n_truth += 1;
+        }
+    }
+    let np = results.len().max(1) as f64;
+    out.set("arap_energy", num(e_arap / np));
+    out.set("distortion_area", num(d_area / np));
+    out.set("distortion_edge", num(d_edge / np));
+    // Distortion curve: fraction of faces whose |log area ratio| to B is
+    // within a bound (grid 0..1, i.e. area ratios within [1/e, e]).
+    let grid = curve_grid(1.0, metrics.curve_points())?;
+    out.curves.push(Curve::new(
+        "distortion_area",
+        &grid,
+        &cumulative_curve(&log_area, &grid),
+    ));
+    if n_truth > 0 {
+        out.set("arap_energy_truth", num(e_arap_truth / n_truth as f64));
+        let s = error_stats(&pooled)?;
+        let su = s.scaled(sb.unit_sphere);
+        let sq = s.scaled(sb.sqrt_area);
+        out.set("err_mean_unit", num(su.mean));
+        out.set("err_rms_unit", num(su.rms));
+        out.set("err_max_unit", num(su.max));
+        out.set("err_mean_area", num(sq.mean));
+        out.set("err_rms_area", num(sq.rms));
+        out.set("err_max_area", num(sq.max));
+        let grid = curve_grid(metrics.curve_max(), metrics.curve_points())?;
+        let unit: Vec<f64> = pooled.iter().map(|e| e * sb.unit_sphere).collect();
+        out.curves.push(Curve::new(
+            "cumulative_unit",
+            &grid,
+            &cumulative_curve(&unit, &grid),
+        ));
+        let grid = curve_grid(metrics.curve_max_area(), metrics.curve_points())?;
+        let area: Vec<f64> = pooled.iter().map(|e| e * sb.sqrt_area).collect();
+        out.curves.push(Curve::new(
+            "cumulative_area",
+            &grid,
+            &cumulative_curve(&area, &grid),
+        ));
+    }
+    out.set("seconds_metrics", secs(t.elapsed().as_secs_f64()));
+    Ok(())
+}
+
+fn clustering(
+    col: &Collection,
+    cm: &CaseMeshes,
+    c: &Clustering,
+    name: &str,
+    render: Option<&RenderOut>,
+    out: &mut CaseResult,
+) -> Result<()> {
+    let a = &*cm.a;
+    let all = owned(&cm.a_def);
+    let truth = col.labels.as_ref().filter(|l| l.len() == a.n_vertices());
+    let n_true = truth.map(|l| {
+        let mut u = l.clone();
+        u.sort_unstable();
+        u.dedup();
+        u.len()
+    });
+    let o = c.run(a, &all, n_true)?;
+    out.set("n_selection_poses", o.n_examples.to_string());
+    out.set("seconds_weights", secs(o.seconds_weights));
+    out.set(
+        "seconds_weights_per_handle",
+        secs(o.seconds_weights / o.handles.len() as f64),
+    );
+    out.set("seconds_fit", secs(o.seconds_clustering));
+    out.set("n_clusters", o.n_clusters.to_string());
+    out.set("n_keypoints", o.handles.len().to_string());
+    out.set("keypoints", join(&o.handles));
+    if let Some(l) = truth {
+        out.set("ari", num(crate::eval::adjusted_rand_index(&o.labels, l)?));
+        out.set("purity", num(crate::skin::groups::purity(&o.labels, l)?));
+    }
+    let sa = ErrorScale::of_reference(a)?;
+    let def: Vec<Vec<crate::Point>> = all.iter().map(|d| d.vertices().to_vec()).collect();
+    out.set(
+        "rigidity_unit",
+        num(cluster_rigidity_rms(a.vertices(), &def, &o.labels)? * sa.unit_sphere),
+    );
+    if let Some(r) = render {
+        let path = r.dir.join(name).join("clusters.csv");
+        let mut s = String::from("vertex,cluster\n");
+        for (i, l) in o.labels.iter().enumerate() {
+            s.push_str(&format!("{i},{l}\n"));
+        }
+        if !path.exists() {
+            super::store::write_file(&path, s.as_bytes(), false)?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,272 @@
+//! Where the key points on the source come from: Algorithm 1, a simulated
+//! user (random or at the extremities), or a given list.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use crate::mesh::Mesh;
+use crate::ops::geodesic::EdgeGraph;
+use crate::ops::{
+    farthest_point_sampling, farthest_point_sampling_from, total_area, vertex_neighbours, FpsMetric,
+};
+use crate::transfer::{perturb_keypoints, select_keypoints, KeypointOptions, KeypointSelection};
+use crate::{Error, Result};
+
+/// Pool of a random simulated user.
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Pool {
+    /// Among the FPS candidates (`n_candidates`, the method's seed).
+    #[default]
+    Candidates,
+    /// Among all vertices.
+    Vertices,
+}
+
+/// How a simulated user picks extremities.
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Strategy {
+    /// Geodesic FPS started at the vertex nearest the centroid (the start
+    /// itself dropped): the farthest points first.
+    #[default]
+    CentroidFps,
+    /// Local maxima of the geodesic distance from the centroid vertex, by
+    /// decreasing distance, then FPS to fill up.
+    Eccentricity,
+}
+
+/// A source of key points on the source mesh A. Every variant is a value;
+/// [`KeypointSource::pick`] is the one entry point.
+#[derive(Clone, Debug, PartialEq)]
+pub enum KeypointSource {
+    /// BDT Algorithm 1 ([`select_keypoints`]) with the method's
+    /// [`KeypointOptions`], on the first `selection_poses` deformed poses
+    /// (`None`: all). Restricting `KeypointOptions::candidate_pool` to the
+    /// source vertices of a correspondence file makes every key point one
+    /// with a known target (`deformlab transfer --correspondence`).
+    Automatic { selection_poses: Option<usize> },
+    /// `count` random vertices drawn with `ChaCha8(seed)` from `pool`.
+    Random { count: usize, seed: u64, pool: Pool },
+    /// `count` geodesic extremities, each moved to a random vertex within
+    /// `jitter · √area` (edge-path distance) with `seed` when `jitter > 0`.
+    Extremity {
+        count: usize,
+        strategy: Strategy,
+        jitter: f64,
+        seed: u64,
+    },
+    /// A given list (e.g. a key point file).
+    Given(Vec<usize>),
+}
+
+/// What [`KeypointSource::pick`] found.
+#[derive(Clone, Debug)]
+pub struct PickedKeypoints {
+    pub keypoints: Vec<usize>,
+    /// The selection (automatic only) and the number of poses it used.
+    pub selection: Option<(Arc<KeypointSelection>, usize)>,
+    /// Wall-clock seconds of the pick (near zero for a memoised selection).
+    pub seconds: f64,
+}
+
+impl KeypointSource {
+    /// Key points on `a` (with deformed poses `a_def`; `opts`: the
+    /// selection options, also the candidate count and FPS metric of the
+    /// random pool).
+    pub fn pick(
+        &self,
+        a: &Mesh,
+        a_def: &[Mesh],
+        opts: &KeypointOptions,
+    ) -> Result<PickedKeypoints> {
+        let t = Instant::now();
+        let (keypoints, selection) = match self {
+            KeypointSource::Automatic { selection_poses } => {
+                let k = selection_poses.unwrap_or(a_def.len()).min(a_def.len());
+                let sel = memo_select(a, &a_def[..k], opts)?;
+                (sel.keypoints.clone(), Some((sel, k)))
+            }
+            KeypointSource::Random { count, seed, pool } => (
+                random_keypoints(a, *count, *seed, *pool, opts.n_candidates, opts.fps)?,
+                None,
+            ),
+            KeypointSource::Extremity {
+                count,
+                strategy,
+                jitter,
+                seed,
+            } => (
+                extremity_keypoints(a, *count, *strategy, *jitter, *seed)?,
+                None,
+            ),
+            KeypointSource::Given(v) => {
+                if let Some(&bad) = v.iter().find(|&&k| k >= a.n_vertices()) {
+                    return Err(Error::invalid(format!(
+                        "key point {bad} out of range for the source ({} vertices)",
+                        a.n_vertices()
+                    )));
+                }
+                (v.clone(), None)
+            }
+        };
+        Ok(PickedKeypoints {
+            keypoints,
+            selection,
+            seconds: t.elapsed().as_secs_f64(),
+        })
+    }
+}
+
+/// Selections already made in this process, keyed by a hash of the source
+/// meshes and the options: configs that repeat one selection in many rows
+/// (e.g. `auto-noise.toml`: one per noise level and seed) select once. The
+/// selection is deterministic, so a memoised result equals a recomputed one.
+fn memo_select(a: &Mesh, a_def: &[Mesh], opts: &KeypointOptions) -> Result<Arc<KeypointSelection>> {
+    use std::collections::HashMap;
+    use std::sync::{Mutex, OnceLock};
+    type Memo = Mutex<HashMap<(u64, String), Arc<KeypointSelection>>>;
+    static MEMO: OnceLock<Memo> = OnceLock::new();
+    let mut bytes: Vec<u8> = Vec::new();
+    for m in std::iter::once(a).chain(a_def) {
+        for p in m.vertices() {
+            for c in p.coords.iter() {
+                bytes.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        for f in m.faces() {
+            for &i in f {
+                bytes.extend_from_slice(&(i as u64).to_le_bytes());
+            }
+        }
+        bytes.push(0xff);
+    }
+    let key = (crate::data::fnv1a(&bytes), format!("{opts:?}"));
+    let memo = MEMO.get_or_init(|| Mutex::new(HashMap::new()));
+    if let Some(s) = memo.lock().ok().and_then(|m| m.get(&key).cloned()) {
+        return Ok(s);
+    }
+    let sel = Arc::new(select_keypoints(a, a_def, opts)?);
+    if let Ok(mut m) = memo.lock() {
+        m.insert(key, sel.clone());
+    }
+    Ok(sel)
+}
+
+/// `count` random key points: among the FPS candidates (`n_candidates`,
+/// seeded with `seed`) or among all vertices, drawn with `ChaCha8(seed)`.
+pub fn random_keypoints(
+    a: &Mesh,
+    count: usize,
+    seed: u64,
+    pool: Pool,
+    n_candidates: usize,
+    fps: FpsMetric,
+) -> Result<Vec<usize>> {
+    let pool: Vec<usize> = match pool {
+        Pool::Candidates => {
+            farthest_point_sampling(a, n_candidates.min(a.n_vertices()), fps, seed)?
+        }
+        Pool::Vertices => (0..a.n_vertices()).collect(),
+    };
+    if count > pool.len() {
+        return Err(Error::invalid(format!(
+            "cannot pick {count} random key points from a pool of {}",
+            pool.len()
+        )));
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    Ok(rand::seq::index::sample(&mut rng, pool.len(), count)
+        .into_iter()
+        .map(|i| pool[i])
+        .collect())
+}
+
+/// The vertex nearest the vertex centroid (lowest index on ties).
+fn centroid_vertex(a: &Mesh) -> usize {
+    let v = a.vertices();
+    let c = v.iter().fold(crate::Vec3::zeros(), |s, p| s + p.coords) / v.len() as f64;
+    let mut best = (0, f64::INFINITY);
+    for (i, p) in v.iter().enumerate() {
+        let d = (p.coords - c).norm_squared();
+        if d < best.1 {
+            best = (i, d);
+        }
+    }
+    best.0
+}
+
+/// Key points a user would pick at the shape's extremities (see
+/// [`Strategy`]); with `jitter > 0` each is replaced by a random vertex
+/// (`ChaCha8(seed)`) within geodesic distance `jitter · √area` of it,
+/// distinct from the others (a less precise user).
+pub fn extremity_keypoints(
+    a: &Mesh,
+    count: usize,
+    strategy: Strategy,
+    jitter: f64,
+    seed: u64,
+) -> Result<Vec<usize>> {
+    let n = a.n_vertices();
+    if count >= n {
+        return Err(Error::invalid(format!(
+            "cannot pick {count} extremities on {n} vertices"
+        )));
+    }
+    let c = centroid_vertex(a);
+    let graph = EdgeGraph::new(a);
+    let sqrt_area = total_area(a).sqrt();
+    let mut picks: Vec<usize> = match strategy {
+        Strategy::CentroidFps => {
+            let mut f = farthest_point_sampling_from(a, count + 1, FpsMetric::Geodesic, c)?;
+            f.remove(0);
+            f
+        }
+        Strategy::Eccentricity => {
+            let d = graph.distances(&[c])?;
+            let nb = vertex_neighbours(a);
+            let mut maxima: Vec<usize> = (0..n)
+                .filter(|&i| {
+                    d[i].is_finite() && d[i] > 0.0 && nb.row(i).iter().all(|&j| d[i] >= d[j])
+                })
+                .collect();
+            maxima.sort_by(|&i, &j| d[j].total_cmp(&d[i]).then(i.cmp(&j)));
+            let sep = 0.15 * sqrt_area;
+            let mut md = vec![f64::INFINITY; n];
+            let mut out = Vec::new();
+            for i in maxima {
+                if out.len() == count {
+                    break;
+                }
+                if md[i] >= sep {
+                    out.push(i);
+                    graph.relax_from(i, &mut md)?;
+                }
+            }
+            // Fill up by farthest points from the picks so far.
+            while out.len() < count {
+                let mut best = (usize::MAX, -1.0);
+                for (i, &x) in md.iter().enumerate() {
+                    if x.is_finite() && x > best.1 && !out.contains(&i) {
+                        best = (i, x);
+                    }
+                }
+                if best.0 == usize::MAX {
+                    return Err(Error::invalid("no vertex left to pick"));
+                }
+                out.push(best.0);
+                graph.relax_from(best.0, &mut md)?;
+            }
+            out
+        }
+    };
+    if jitter > 0.0 {
+        // The same seeded geodesic draw as the target key point noise.
+        picks = perturb_keypoints(a, &picks, jitter * sqrt_area, seed)?;
+    }
+    Ok(picks)
+}

@@ -1,0 +1,338 @@
+//! Deformation transfer methods as values: BDT and its baselines, and the
+//! trivial floor `identity`. [`TransferMethod::run`] is the one entry point
+//! of the CLI (`deformlab transfer`), the harness (`deformlab run`) and
+//! the benchmarks.
+
+use std::time::Instant;
+
+use super::keypoints::{KeypointSource, PickedKeypoints};
+use super::target::{TargetFound, TargetPoints};
+use crate::baselines::{
+    correspond, CageOptions, CageTransfer, CorrespondenceOptions, DeformationTransfer,
+    SumnerTransferOptions, TriangleCorrespondence,
+};
+use crate::mesh::Mesh;
+use crate::transfer::{
+    fit_keypoints, transfer_detailed, KeypointFit, KeypointOptions, TargetWeights, TransferFrame,
+    TransferOptions,
+};
+use crate::{Error, Result, Vec3};
+
+/// The options of BDT transfer: the selection and fit on A, and how the
+/// transforms act on B. Its [`Default`] is the one default of the CLI, the
+/// configs and the benchmarks.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BdtOptions {
+    /// Key point selection and fit on the source (Algorithm 1, Eq. 2–5).
+    pub keypoints: KeypointOptions,
+    /// Where the transforms act on B.
+    pub frame: TransferFrame,
+    /// Weights computed on B (`auto`: those of the fit on A).
+    pub target_weights: TargetWeights,
+    /// ARAP refinement on B after LBS (not in the paper).
+    pub refine: bool,
+}
+
+impl BdtOptions {
+    /// The options of [`transfer_detailed`]: B is skinned with the weight
+    /// options of the fit on A (so that A → A reproduces the fit).
+    pub fn transfer_options(&self) -> TransferOptions {
+        TransferOptions {
+            frame: self.frame,
+            weights: self.keypoints.weights,
+            weight_kind: self.target_weights.resolve(self.keypoints.mode),
+            fast_bounds: self.keypoints.fast.bounds,
+            refine: self.refine,
+            seed: self.keypoints.seed,
+            ..TransferOptions::default()
+        }
+    }
+}
+
+/// A transfer method. Closed: a new variant makes the compiler point at
+/// every `match` that must handle it (no wildcard arms).
+#[derive(Clone, Debug, PartialEq)]
+pub enum TransferMethod {
+    /// The target left unchanged: `B′_j = B` (every evaluation's floor).
+    Identity,
+    /// BDT: key points on A, their transforms fitted on the deformed A′,
+    /// target key points, weights on B, LBS (optionally ARAP-refined).
+    Bdt {
+        keypoints: KeypointSource,
+        target: TargetPoints,
+        options: BdtOptions,
+    },
+    /// Sumner & Popović deformation transfer with the key point pairs as the
+    /// markers of its correspondence step.
+    Sumner {
+        keypoints: KeypointSource,
+        target: TargetPoints,
+        options: KeypointOptions,
+    },
+    /// Sumner & Popović with the identity triangle correspondence (shared
+    /// connectivity only): the full-correspondence oracle.
+    SumnerOracle,
+    /// Cage-based spatial deformation transfer with the key point pairs as
+    /// markers ([`CageTransfer`]).
+    Cage {
+        keypoints: KeypointSource,
+        target: TargetPoints,
+        options: KeypointOptions,
+    },
+}
+
+/// The meshes of one transfer: source `a`, its deformed poses `a_def`,
+/// target `b`.
+#[derive(Clone, Copy, Debug)]
+pub struct TransferCase<'a> {
+    pub a: &'a Mesh,
+    pub a_def: &'a [Mesh],
+    pub b: &'a Mesh,
+}
+
+/// Wall-clock seconds of the stages a method has (`None`: not run).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TransferTimings {
+    /// Fit of the key point transforms on A (BDT).
+    pub fit: Option<f64>,
+    /// Weights on B (BDT).
+    pub weights: Option<f64>,
+    /// LBS of all poses (BDT).
+    pub lbs: Option<f64>,
+    /// ARAP refinement (BDT).
+    pub refine: Option<f64>,
+    /// Correspondence step (Sumner), cages and coordinates (cage).
+    pub precompute: Option<f64>,
+    /// Deformation transfer matrix (Sumner).
+    pub factorise: Option<f64>,
+    /// All poses (Sumner, cage).
+    pub solve: Option<f64>,
+}
+
+/// Everything a transfer computed.
+#[derive(Clone, Debug)]
+pub struct TransferOutcome {
+    /// `B′_j`, one per deformed source.
+    pub meshes: Vec<Mesh>,
+    /// Key points on A (not for `identity` and the oracle).
+    pub keypoints: Option<PickedKeypoints>,
+    /// Their target vertices.
+    pub target: Option<TargetFound>,
+    /// The BDT fit on A (`D_S(A)` per pose, transforms, error).
+    pub fit: Option<KeypointFit>,
+    /// Cage rows: the cage fit residual `‖Φ_s C_s′ − A′‖` per pose (A's units).
+    pub cage_fit_errors: Option<Vec<f64>>,
+    /// BDT with an automatic correspondence: whether the transforms were
+    /// re-expressed in B's frame (the registration rotated A onto B).
+    pub frames_differ: Option<bool>,
+    pub timings: TransferTimings,
+}
+
+impl TransferOutcome {
+    fn new(meshes: Vec<Mesh>) -> Self {
+        TransferOutcome {
+            meshes,
+            keypoints: None,
+            target: None,
+            fit: None,
+            cage_fit_errors: None,
+            frames_differ: None,
+            timings: TransferTimings::default(),
+        }
+    }
+}
+
+impl TransferMethod {
+    /// Short kind name (as in the configs' `kind`).
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            TransferMethod::Identity => "identity",
+            TransferMethod::Bdt { keypoints, .. } => match keypoints {
+                KeypointSource::Automatic { .. } | KeypointSource::Given(_) => "bdt",
+                KeypointSource::Random { .. } => "bdt_random",
+                KeypointSource::Extremity { .. } => "bdt_extremity",
+            },
+            TransferMethod::Sumner { .. } => "sumner",
+            TransferMethod::SumnerOracle => "sumner_oracle",
+            TransferMethod::Cage { .. } => "cage",
+        }
+    }
+
+    /// Transfers every deformation `a → a_def[j]` to `b`.
+    pub fn run(&self, case: &TransferCase) -> Result<TransferOutcome> {
+        let TransferCase { a, a_def, b } = *case;
+        match self {
+            TransferMethod::Identity => Ok(TransferOutcome::new(vec![b.clone(); a_def.len()])),
+            TransferMethod::Bdt {
+                keypoints,
+                target,
+                options,
+            } => {
+                let picked = keypoints.pick(a, a_def, &options.keypoints)?;
+                let t = Instant::now();
+                let fit = fit_keypoints(a, a_def, &picked.keypoints, &options.keypoints)?;
+                let seconds_fit = t.elapsed().as_secs_f64();
+                let found = target.find(a, b, &picked.keypoints)?;
+                // A rotated onto B by the registration: transforms in B's frame.
+                let (a_t, transforms) = match &found.auto {
+                    Some(r) => (
+                        r.source_in_target_frame(a)?,
+                        r.target_frame_transforms(&fit.transforms),
+                    ),
+                    None => (a.clone(), fit.transforms.clone()),
+                };
+                let tr = transfer_detailed(
+                    &a_t,
+                    &picked.keypoints,
+                    &transforms,
+                    b,
+                    &found.keypoints,
+                    &options.transfer_options(),
+                )?;
+                let mut out = TransferOutcome::new(tr.meshes);
+                out.frames_differ = found.auto.as_ref().map(|r| r.frames_differ());
+                out.timings = TransferTimings {
+                    fit: Some(seconds_fit),
+                    weights: Some(tr.seconds_weights),
+                    lbs: Some(tr.seconds_lbs),
+                    refine: Some(tr.seconds_refine),
+                    ..TransferTimings::default()
+                };
+                out.keypoints = Some(picked);
+                out.target = Some(found);
+                out.fit = Some(fit);
+                Ok(out)
+            }
+            TransferMethod::Sumner {
+                keypoints,
+                target,
+                options,
+            }
+            | TransferMethod::Cage {
+                keypoints,
+                target,
+                options,
+            } => {
+                let picked = keypoints.pick(a, a_def, options)?;
+                let found = target.find(a, b, &picked.keypoints)?;
+                if found.auto.as_ref().is_some_and(|r| r.frames_differ()) {
+                    return Err(Error::invalid(
+                        "the registration rotated the source onto the target: the baselines \
+                         assume one frame (only bdt re-expresses its transforms in the \
+                         target's frame)",
+                    ));
+                }
+                let markers: Vec<(usize, usize)> = picked
+                    .keypoints
+                    .iter()
+                    .copied()
+                    .zip(found.keypoints.iter().copied())
+                    .collect();
+                let mut out = if matches!(self, TransferMethod::Cage { .. }) {
+                    cage(a, a_def, b, &markers)?
+                } else {
+                    sumner(a, a_def, b, &markers, false)?
+                };
+                out.keypoints = Some(picked);
+                out.target = Some(found);
+                Ok(out)
+            }
+            TransferMethod::SumnerOracle => {
+                if a.faces() != b.faces() {
+                    return Err(Error::invalid(format!(
+                        "sumner_oracle needs shared connectivity: source has {} vertices / {} \
+                         faces, target {} / {} (or different faces)",
+                        a.n_vertices(),
+                        a.n_faces(),
+                        b.n_vertices(),
+                        b.n_faces()
+                    )));
+                }
+                let markers: Vec<(usize, usize)> = (0..a.n_vertices()).map(|i| (i, i)).collect();
+                sumner(a, a_def, b, &markers, true)
+            }
+        }
+    }
+}
+
+/// Sumner DT of every pose; `oracle`: the identity triangle correspondence,
+/// else the correspondence step from `markers`.
+fn sumner(
+    a: &Mesh,
+    a_def: &[Mesh],
+    b: &Mesh,
+    markers: &[(usize, usize)],
+    oracle: bool,
+) -> Result<TransferOutcome> {
+    let t = Instant::now();
+    let corr = if oracle {
+        TriangleCorrespondence::identity(a.n_faces())
+    } else {
+        correspond(a, b, markers, &CorrespondenceOptions::default())?.triangles
+    };
+    let precompute = t.elapsed().as_secs_f64();
+    let dt = DeformationTransfer::new(a, b, &corr, &SumnerTransferOptions::default())?;
+    let t = Instant::now();
+    let meshes = a_def
+        .iter()
+        .map(|pose| match_translation(&dt.transfer(pose)?, b, a, pose, markers))
+        .collect::<Result<Vec<_>>>()?;
+    let mut out = TransferOutcome::new(meshes);
+    out.timings = TransferTimings {
+        precompute: Some(precompute),
+        factorise: Some(dt.factor_seconds()),
+        solve: Some(t.elapsed().as_secs_f64()),
+        ..TransferTimings::default()
+    };
+    Ok(out)
+}
+
+/// Cage DT of every pose with `markers`.
+fn cage(a: &Mesh, a_def: &[Mesh], b: &Mesh, markers: &[(usize, usize)]) -> Result<TransferOutcome> {
+    let t = Instant::now();
+    let ct = CageTransfer::new(a, b, markers, &CageOptions::default())?;
+    let precompute = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let mut meshes = Vec::with_capacity(a_def.len());
+    let mut fit = Vec::with_capacity(a_def.len());
+    for pose in a_def {
+        let r = ct.transfer(pose)?;
+        fit.push(r.fit_error);
+        meshes.push(r.mesh);
+    }
+    let mut out = TransferOutcome::new(meshes);
+    out.cage_fit_errors = Some(fit);
+    out.timings = TransferTimings {
+        precompute: Some(precompute),
+        solve: Some(t.elapsed().as_secs_f64()),
+        ..TransferTimings::default()
+    };
+    Ok(out)
+}
+
+/// Translates `result` so that the centroid of its vertices `targets`
+/// moves by the displacement of the centroid of `sources` from
+/// `source_rest` to `source_pose` (relative to `target_rest`).
+///
+/// Deformation transfer determines its result only up to a translation
+/// (the solve pins one vertex at its rest position); this uses only source
+/// data (the oracle: all vertices).
+pub fn match_translation(
+    result: &Mesh,
+    target_rest: &Mesh,
+    source_rest: &Mesh,
+    source_pose: &Mesh,
+    pairs: &[(usize, usize)],
+) -> Result<Mesh> {
+    if pairs.is_empty() {
+        return Err(Error::invalid("translation from an empty marker list"));
+    }
+    let (rv, tv) = (result.vertices(), target_rest.vertices());
+    let (sr, sp) = (source_rest.vertices(), source_pose.vertices());
+    let mut shift = Vec3::zeros();
+    for &(s, t) in pairs {
+        shift += (sp[s] - sr[s]) - (rv[t] - tv[t]);
+    }
+    shift /= pairs.len() as f64;
+    result.map_vertices(|p| p + shift)
+}
