@@ -242,12 +242,18 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
         );
     }
     let fit_error = fit.error;
-    let (frame, refine) = match &method {
-        TransferMethod::Bdt { options, .. } => (options.frame, options.refine),
+    let (frame, refine, target_weights) = match &method {
+        TransferMethod::Bdt { options, .. } => (
+            options.frame,
+            options.refine,
+            options.transfer_options().weight_kind,
+        ),
         TransferMethod::Identity
         | TransferMethod::Sumner { .. }
         | TransferMethod::SumnerOracle
-        | TransferMethod::Cage { .. } => (TransferFrame::Direct, false),
+        | TransferMethod::Cage { .. } => {
+            return Err(Error::invalid("deformlab transfer runs BDT"));
+        }
     };
     let seconds_weights = res.timings.weights.unwrap_or(0.0);
     let seconds_lbs = res.timings.lbs.unwrap_or(0.0);
@@ -290,6 +296,7 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
             "output": reg_out.display().to_string(),
         })),
         "frame": frame.name(),
+        "target_weights": target_weights,
         "refine": refine,
         "selection": log_sel,
         "fit_error": fit_error,

@@ -680,6 +680,14 @@ fn expand(name: &str, arrays: &BTreeMap<String, String>) -> String {
 /// Parses a config text (`path` is used in messages and to resolve relative
 /// dataset paths).
 pub fn parse_config(text: &str, path: &Path) -> Result<LoadedConfig> {
+    let loaded = parse_unchecked(text, path)?;
+    check_dataset(&loaded)?;
+    check_outputs(&loaded)?;
+    loaded.check_paths()?;
+    Ok(loaded)
+}
+
+fn parse_unchecked(text: &str, path: &Path) -> Result<LoadedConfig> {
     let config: Config = toml::from_str(text).map_err(|e| {
         let msg = e.message().trim().to_string();
         match e.span() {
@@ -706,19 +714,75 @@ pub fn parse_config(text: &str, path: &Path) -> Result<LoadedConfig> {
         base_dir,
         methods,
     };
-    check_dataset(&loaded)?;
-    check_outputs(&loaded)?;
     Ok(loaded)
 }
 
-/// Reads and parses a config file.
+/// Reads and parses a config file (schema, values and dataset paths).
 pub fn load_config(path: &Path) -> Result<LoadedConfig> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     parse_config(&text, path)
 }
 
+/// Reads a config file and checks its schema and values, but not whether
+/// its dataset paths exist: for checking configs whose data is elsewhere
+/// (e.g. `experiments/real/` without `../shared/data`). A run needs
+/// [`load_config`].
+pub fn load_config_schema(path: &Path) -> Result<LoadedConfig> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    parse_config_schema(&text, path)
+}
+
+/// [`parse_config`] without the dataset path check.
+pub fn parse_config_schema(text: &str, path: &Path) -> Result<LoadedConfig> {
+    let loaded = parse_unchecked(text, path)?;
+    check_dataset(&loaded)?;
+    check_outputs(&loaded)?;
+    Ok(loaded)
+}
+
 fn bad(path: &Path, key: impl Into<String>, msg: impl Into<String>) -> Error {
     Error::parse(path, format!("key `{}`", key.into()), msg)
+}
+
+impl LoadedConfig {
+    /// Errors (naming the key and the path) if a dataset path of the
+    /// config does not exist.
+    pub fn check_paths(&self) -> Result<()> {
+        let c = self;
+        let d = &c.config.dataset;
+        let check = |key: &str, p: &Path, want_dir: bool| -> Result<()> {
+            let full = c.base_dir.join(p);
+            let ok = if want_dir {
+                full.is_dir()
+            } else {
+                full.is_file()
+            };
+            if ok {
+                Ok(())
+            } else {
+                Err(bad(
+                    &c.path,
+                    key,
+                    format!(
+                        "expected an existing {} (relative paths are relative to the config file), \
+                         but {} does not exist",
+                        if want_dir { "folder" } else { "file" },
+                        full.display()
+                    ),
+                ))
+            }
+        };
+        if let Some(f) = &d.faust {
+            check("dataset.faust.path", &f.path, true)?;
+        }
+        if let Some(f) = &d.tosca {
+            check("dataset.tosca.path", &f.path, true)?;
+        }
+        if let Some(f) = &d.manifest {
+            check("dataset.manifest.path", &f.path, false)?;
+        }
+        Ok(())
+    }
 }
 
 fn check_dataset(c: &LoadedConfig) -> Result<()> {
@@ -739,37 +803,6 @@ fn check_dataset(c: &LoadedConfig) -> Result<()> {
             "expected exactly one of [dataset.synthetic], [dataset.faust], [dataset.tosca], \
              [dataset.manifest]",
         ));
-    }
-    let check = |key: &str, p: &Path, want_dir: bool| -> Result<()> {
-        let full = c.base_dir.join(p);
-        let ok = if want_dir {
-            full.is_dir()
-        } else {
-            full.is_file()
-        };
-        if ok {
-            Ok(())
-        } else {
-            Err(bad(
-                &c.path,
-                key,
-                format!(
-                    "expected an existing {} (relative paths are relative to the config file), \
-                     but {} does not exist",
-                    if want_dir { "folder" } else { "file" },
-                    full.display()
-                ),
-            ))
-        }
-    };
-    if let Some(f) = &d.faust {
-        check("dataset.faust.path", &f.path, true)?;
-    }
-    if let Some(f) = &d.tosca {
-        check("dataset.tosca.path", &f.path, true)?;
-    }
-    if let Some(f) = &d.manifest {
-        check("dataset.manifest.path", &f.path, false)?;
     }
     if let Some(s) = &d.synthetic {
         let fs = s.faust_style();
