@@ -17,7 +17,9 @@
 //! used by the algorithms.
 
 use std::io::Write;
+use std::time::Instant;
 
+use crate::register::metrics::median;
 use crate::{Error, Result};
 
 pub mod baselines;
@@ -104,4 +106,76 @@ pub fn run(groups: &[String], opts: &BenchOptions, out: &mut dyn Write) -> Resul
 // moves here (e.g. `bench/fig14.rs`) once that file's rewrite is merged.
 fn fig14(quick: bool) -> Result<String> {
     crate::experiment::baselines::bench_fig14(quick)
+}
+
+/// Median wall time (s) of `reps` runs of `f` (at least one) and the result
+/// of the last run. Each run's result is dropped, untimed, before the next
+/// run starts, so at most one is alive at a time.
+pub(crate) fn time<T>(reps: usize, mut f: impl FnMut() -> Result<T>) -> Result<(f64, T)> {
+    let mut times = Vec::with_capacity(reps.max(1));
+    let mut last = None;
+    for _ in 0..reps.max(1) {
+        drop(last.take());
+        let t = Instant::now();
+        let r = f()?;
+        times.push(t.elapsed().as_secs_f64());
+        last = Some(r);
+    }
+    let last = last.ok_or_else(|| Error::invalid("no repetitions"))?;
+    Ok((median(times), last))
+}
+
+/// Like [`time`], also returning the median CPU time (all threads of the
+/// process, from [`cpu_seconds`]; `NaN` if unavailable) of the runs.
+pub(crate) fn time_cpu<T>(reps: usize, mut f: impl FnMut() -> Result<T>) -> Result<(f64, f64, T)> {
+    let mut cpu = Vec::with_capacity(reps.max(1));
+    let (wall, last) = time(reps, || {
+        let c0 = cpu_seconds();
+        let r = f()?;
+        cpu.push(match (c0, cpu_seconds()) {
+            (Some(a), Some(b)) => b - a,
+            _ => f64::NAN,
+        });
+        Ok(r)
+    })?;
+    Ok((wall, median(cpu), last))
+}
+
+/// CPU time (s) used so far by the live threads of this process, from
+/// `/proc/self/task/*/schedstat` (Linux); `None` where unavailable.
+pub(crate) fn cpu_seconds() -> Option<f64> {
+    let mut ns = 0u64;
+    let mut any = false;
+    for entry in std::fs::read_dir("/proc/self/task").ok()?.flatten() {
+        let Ok(text) = std::fs::read_to_string(entry.path().join("schedstat")) else {
+            continue;
+        };
+        if let Some(v) = text
+            .split_whitespace()
+            .next()
+            .and_then(|t| t.parse::<u64>().ok())
+        {
+            ns += v;
+            any = true;
+        }
+    }
+    any.then_some(ns as f64 * 1e-9)
+}
+
+/// The 1-minute load average from `/proc/loadavg` (as printed by `uptime`),
+/// `"n/a"` where unavailable: timings are wall-clock on a shared machine.
+pub(crate) fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .and_then(|s| s.split_whitespace().next().map(str::to_string))
+        .unwrap_or_else(|| "n/a".into())
+}
+
+/// A rayon pool of `threads` threads (time a parallel stage at a fixed
+/// thread count with `pool.install(..)`).
+pub(crate) fn pool(threads: usize) -> Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Error::numerical(format!("cannot build a {threads}-thread pool: {e}")))
 }
