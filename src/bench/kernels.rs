@@ -1,7 +1,7 @@
 //! Benchmarks of the numerical core, as plain functions that return a printed
-//! table (the CLI's `deformlab bench` calls [`run`]). Medians over repeated
-//! runs: at least 5 repetitions for the small size, 3 for the larger ones
-//! (1 for the slow nalgebra-sparse comparison at 50k).
+//! table (`deformlab bench` calls [`run`] through [`super::run`]). Medians
+//! over repeated runs: at least 5 repetitions for the small size, 3 for the
+//! larger ones (1 for the slow nalgebra-sparse comparison at 50k).
 //!
 //! Meshes are tori `torus(1.0, 0.5, nu, nv)` with `nu = 2 nv`, so triangles
 //! are nearly uniform: 120×60 = **7 200**, 316×158 = **49 928** and
