@@ -33,9 +33,6 @@
 pub mod arap;
 pub mod baselines;
 pub mod bench;
-pub mod bench_bdt;
-pub mod bench_fbt;
-pub mod bench_skin;
 pub mod data;
 pub mod error;
 pub mod eval;

@@ -25,26 +25,16 @@
 //! | 18 | regressions found by fuzzing (fuzz/) | error, no panic |
 //! | 19 | empty files, a mesh without faces, a face with < 3 corners | error |
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
+use std::path::{Path, PathBuf};
+
+use common::{run as cli, tmp, write};
 use deformlab::mesh::io::{parse_raw, parse_vert_tri, read_mesh, read_raw, write_ply, Format};
 use deformlab::mesh::primitives::icosphere;
 use deformlab::mesh::validate::DefectReport;
 use deformlab::mesh::{Mesh, RawMesh};
 use deformlab::{Error, Point};
-
-const BIN: &str = env!("CARGO_BIN_EXE_deformlab");
-
-fn tmp() -> tempfile::TempDir {
-    tempfile::tempdir().unwrap()
-}
-
-fn write(dir: &Path, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, bytes).unwrap();
-    p
-}
 
 /// Asserts an error whose message contains every needle (case-insensitive).
 #[track_caller]
@@ -70,13 +60,6 @@ fn read_err(path: &Path, needles: &[&str]) -> Error {
     let mut all = vec![name.as_str()];
     all.extend_from_slice(needles);
     expect_err(read_mesh(path), &all)
-}
-
-fn cli(args: &[&str]) -> Output {
-    Command::new(BIN)
-        .args(args)
-        .output()
-        .expect("spawn deformlab")
 }
 
 /// Runs the CLI expecting failure (exit code ≠ 0, not a panic: exit code

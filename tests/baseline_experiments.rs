@@ -1,11 +1,12 @@
 //! The baselines as harness methods (issue 6): a tiny Fig. 14-like config
 //! with BDT, Sumner DT with the BDT key points, the Sumner oracle and cage DT.
 
-use std::collections::HashMap;
-use std::path::Path;
-use std::process::Command;
+mod common;
 
-const BIN: &str = env!("CARGO_BIN_EXE_deformlab");
+use std::collections::{BTreeMap, HashMap};
+use std::path::Path;
+
+use common::{csv_rows as rows, run as deformlab, write};
 
 const CONFIG: &str = r#"
 name = "tiny14"
@@ -50,33 +51,10 @@ render_poses = 1
 kind = "cumulative"
 "#;
 
-fn deformlab(args: &[&str]) -> std::process::Output {
-    Command::new(BIN)
-        .args(args)
-        .env_remove("DEFORMLAB_RUN_MAX_NEW")
-        .output()
-        .expect("spawn deformlab")
-}
-
-fn rows(path: &Path) -> Vec<HashMap<String, String>> {
-    let mut r = csv::Reader::from_path(path).unwrap();
-    let head: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
-    r.records()
-        .map(|rec| {
-            let rec = rec.unwrap();
-            head.iter()
-                .cloned()
-                .zip(rec.iter().map(String::from))
-                .collect()
-        })
-        .collect()
-}
-
 #[test]
 fn sumner_oracle_and_cage_rows_share_bdt_keypoints_and_metrics() {
     let dir = tempfile::tempdir().unwrap();
-    let cfg = dir.path().join("tiny14.toml");
-    std::fs::write(&cfg, CONFIG).unwrap();
+    let cfg = write(dir.path(), "tiny14.toml", CONFIG);
     let out = dir.path().join("out");
     let o = deformlab(&[
         "run",
@@ -95,7 +73,7 @@ fn sumner_oracle_and_cage_rows_share_bdt_keypoints_and_metrics() {
     let res = out.join("tiny14");
     let rs = rows(&res.join("cases.csv"));
     assert_eq!(rs.len(), 4, "one case × 4 methods");
-    let by: HashMap<&str, &HashMap<String, String>> =
+    let by: HashMap<&str, &BTreeMap<String, String>> =
         rs.iter().map(|r| (r["method"].as_str(), r)).collect();
     let err = |m: &str| -> f64 { by[m]["err_mean_unit"].parse().unwrap() };
     for m in ["auto", "sumner", "oracle", "cage"] {
@@ -166,9 +144,8 @@ fn walk(d: &Path) -> Vec<String> {
 #[test]
 fn baseline_kinds_reject_fields_of_other_kinds() {
     let dir = tempfile::tempdir().unwrap();
-    let cfg = dir.path().join("bad.toml");
     let text = CONFIG.replace("kind = \"cage\"", "kind = \"cage\"\ncount = 3");
-    std::fs::write(&cfg, text).unwrap();
+    let cfg = write(dir.path(), "bad.toml", text);
     let out = dir.path().join("out");
     let o = deformlab(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     let msg = String::from_utf8_lossy(&o.stderr);

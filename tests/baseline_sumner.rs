@@ -608,7 +608,7 @@ fn horse_to_camel_renders() {
 
 #[test]
 fn bench_quick_reports_timings() {
-    let report = deformlab::baselines::sumner::bench(true).unwrap();
+    let report = deformlab::bench::baselines::bench(true).unwrap();
     println!("{report}");
     assert!(report.contains("| correspondence (s) |"), "{report}");
     assert!(report

@@ -1,10 +1,8 @@
 //! End-to-end runs of the `deformlab` binary.
 
-use std::process::Command;
+mod common;
 
-fn deformlab() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_deformlab"))
-}
+use common::deformlab;
 
 #[test]
 fn gen_then_inspect_reports_zero_defects() {

@@ -1,24 +1,12 @@
 //! End-to-end runs of `deformlab gen → keypoints → transfer` on a tiny
 //! synthetic set, and bad input.
 
+mod common;
+
 use std::path::Path;
-use std::process::{Command, Output};
 
+use common::{deformlab, stdout_ok as ok};
 use deformlab::mesh::io::read_mesh;
-
-fn deformlab() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_deformlab"))
-}
-
-fn ok(out: &Output) -> String {
-    let text = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(
-        out.status.success(),
-        "{text}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    text
-}
 
 fn gen(dir: &Path) -> std::path::PathBuf {
     let out = deformlab()

@@ -8,15 +8,16 @@
 //! summary.csv equal the uninterrupted run's apart from the `seconds_*`
 //! columns (rows of `seconds_*` metrics in summary.csv).
 
+mod common;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
+use common::{csv_without_timing, deformlab, ok, write};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-
-const BIN: &str = env!("CARGO_BIN_EXE_deformlab");
 
 const BDT: &str = r#"
 name = "crash-bdt"
@@ -90,14 +91,9 @@ const N_RESULTS: usize = 4 * 2;
 const KILLS: usize = 20;
 
 fn write_configs(dir: &Path) -> Vec<PathBuf> {
-    std::fs::create_dir_all(dir).unwrap();
     [("bdt.toml", BDT), ("fbt.toml", FBT)]
         .iter()
-        .map(|(name, text)| {
-            let p = dir.join(name);
-            std::fs::write(&p, text).unwrap();
-            p
-        })
+        .map(|(name, text)| write(dir, name, text))
         .collect()
 }
 
@@ -110,22 +106,6 @@ fn run_args(configs: &[PathBuf], out: &Path) -> Vec<String> {
     a.push("--no-plots".into());
     a.push("--quiet".into());
     a
-}
-
-fn command(args: &[String]) -> Command {
-    let mut c = Command::new(BIN);
-    c.args(args).env_remove("DEFORMLAB_RUN_MAX_NEW");
-    c
-}
-
-fn run_to_end(args: &[String]) {
-    let o = command(args).output().expect("spawn deformlab");
-    assert!(
-        o.status.success(),
-        "deformlab {args:?} failed:\n{}\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
 }
 
 /// Every file under `dir/cases/` (relative path → bytes), temporaries
@@ -167,26 +147,6 @@ fn result_without_timing(rel: &str, bytes: &[u8]) -> serde_json::Value {
     v
 }
 
-/// A CSV with the columns named `seconds_*` removed, and (for summary.csv)
-/// the rows whose `metric` is a `seconds_*` column.
-fn csv_without_timing(path: &Path) -> Vec<Vec<String>> {
-    let mut rdr = csv::Reader::from_path(path).unwrap();
-    let header: Vec<String> = rdr.headers().unwrap().iter().map(String::from).collect();
-    let keep: Vec<usize> = (0..header.len())
-        .filter(|&i| !header[i].starts_with("seconds_"))
-        .collect();
-    let metric = header.iter().position(|h| h == "metric");
-    let mut rows = vec![keep.iter().map(|&i| header[i].clone()).collect::<Vec<_>>()];
-    for rec in rdr.records() {
-        let rec = rec.unwrap();
-        if metric.is_some_and(|m| rec[m].starts_with("seconds_")) {
-            continue;
-        }
-        rows.push(keep.iter().map(|&i| rec[i].to_string()).collect());
-    }
-    rows
-}
-
 #[test]
 fn sigkill_at_20_random_moments_loses_nothing() {
     let t0 = Instant::now();
@@ -196,7 +156,7 @@ fn sigkill_at_20_random_moments_loses_nothing() {
     // Uninterrupted reference run; its duration scales the kill moments.
     let ref_out = tmp.path().join("reference");
     let start = Instant::now();
-    run_to_end(&run_args(&configs, &ref_out));
+    ok(&run_args(&configs, &ref_out));
     let t_ref = start.elapsed();
     let reference: Vec<BTreeMap<String, Vec<u8>>> = EXPERIMENTS
         .iter()
@@ -208,7 +168,7 @@ fn sigkill_at_20_random_moments_loses_nothing() {
 
     // A resumed run of a finished suite (start-up, tables, manifest).
     let start = Instant::now();
-    run_to_end(&run_args(&configs, &ref_out));
+    ok(&run_args(&configs, &ref_out));
     let t_noop = start.elapsed().as_secs_f64();
 
     // Killed runs: each is killed at a moment drawn uniformly from
@@ -237,7 +197,8 @@ fn sigkill_at_20_random_moments_loses_nothing() {
         let missing = 1.0 - in_round as f64 / total;
         let window = t_noop + t_ref.as_secs_f64() * (0.25 + 0.6 * missing);
         let delay = Duration::from_secs_f64(rng.random::<f64>() * window);
-        let mut child = command(&args)
+        let mut child = deformlab()
+            .args(&args)
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
@@ -310,7 +271,7 @@ fn sigkill_at_20_random_moments_loses_nothing() {
     );
 
     // Final, uninterrupted resume.
-    run_to_end(&args);
+    ok(&args);
     for (k, e) in EXPERIMENTS.iter().enumerate() {
         let dir = out.join(e);
         let files = case_files(&dir);

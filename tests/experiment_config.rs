@@ -1,12 +1,12 @@
 //! Config errors name the file, the key and what was expected.
 
-use std::path::Path;
-use std::process::Command;
+mod common;
 
+use std::path::Path;
+
+use common::{run, write};
 use deformlab::experiment::{load_config, parse_config, Method};
 use deformlab::methods::{KeypointSource, TransferMethod};
-
-const BIN: &str = env!("CARGO_BIN_EXE_deformlab");
 
 const GOOD: &str = r#"
 name = "ok"
@@ -103,8 +103,7 @@ fn missing_dataset_path_is_named() {
         "[dataset.synthetic]\nsubjects = 2\nposes = 3\nresolution = 1",
         "[dataset.faust]\npath = \"no/such/folder\"",
     );
-    let p = t.path().join("exp.toml");
-    std::fs::write(&p, &text).unwrap();
+    let p = write(t.path(), "exp.toml", &text);
     let e = load_config(&p).unwrap_err().to_string();
     assert!(e.contains(&p.display().to_string()), "{e}");
     assert!(
@@ -114,10 +113,7 @@ fn missing_dataset_path_is_named() {
     assert!(e.contains("no/such/folder"), "{e}");
     // Same through the command line, exit code 2, nothing written.
     let out = t.path().join("out");
-    let o = Command::new(BIN)
-        .args(["run", p.to_str().unwrap(), "--out", out.to_str().unwrap()])
-        .output()
-        .unwrap();
+    let o = run(&["run", p.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
@@ -159,17 +155,13 @@ fn semantic_errors_name_the_key() {
 #[test]
 fn unknown_subject_in_cases_is_named() {
     let t = tempfile::tempdir().unwrap();
-    let p = t.path().join("exp.toml");
-    std::fs::write(
-        &p,
+    let p = write(
+        t.path(),
+        "exp.toml",
         GOOD.replace("[defaults]", "[cases]\nsources = [7]\n[defaults]"),
-    )
-    .unwrap();
+    );
     let out = t.path().join("out");
-    let o = Command::new(BIN)
-        .args(["run", p.to_str().unwrap(), "--out", out.to_str().unwrap()])
-        .output()
-        .unwrap();
+    let o = run(&["run", p.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success());
     assert!(

@@ -3,12 +3,13 @@
 //! an interrupted (SIGKILL) and resumed run, thread counts, shards + merge,
 //! a changed config, and the plot calls.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-const BIN: &str = env!("CARGO_BIN_EXE_deformlab");
+use common::{cases_without_timing, copy_dir, deformlab, ok, run, write};
 
 const CONFIG: &str = r#"
 name = "tiny"
@@ -55,63 +56,9 @@ render_poses = 1
 
 const N_RESULTS: usize = 2 * 4;
 
+/// Writes the config `dir/tiny.toml`.
 fn write_config(dir: &Path, text: &str) -> PathBuf {
-    std::fs::create_dir_all(dir).unwrap();
-    let p = dir.join("tiny.toml");
-    std::fs::write(&p, text).unwrap();
-    p
-}
-
-fn run(args: &[&str]) -> Output {
-    let out = Command::new(BIN)
-        .args(args)
-        .env_remove("DEFORMLAB_RUN_MAX_NEW")
-        .output()
-        .expect("spawn deformlab");
-    out
-}
-
-fn ok(args: &[&str]) {
-    let o = run(args);
-    assert!(
-        o.status.success(),
-        "deformlab {args:?} failed:\n{}\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-/// cases.csv without its timing columns (`seconds_*`).
-fn cases_without_timing(dir: &Path) -> String {
-    let text = std::fs::read_to_string(dir.join("cases.csv")).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let keep: Vec<usize> = (0..header.len())
-        .filter(|&i| !header[i].starts_with("seconds_"))
-        .collect();
-    assert!(keep.len() < header.len(), "timing columns expected");
-    let mut rdr = csv::Reader::from_reader(text.as_bytes());
-    let mut out = String::new();
-    out.push_str(
-        &keep
-            .iter()
-            .map(|&i| header[i])
-            .collect::<Vec<_>>()
-            .join(","),
-    );
-    out.push('\n');
-    for rec in rdr.records() {
-        let rec = rec.unwrap();
-        out.push_str(
-            &keep
-                .iter()
-                .map(|&i| rec[i].to_string())
-                .collect::<Vec<_>>()
-                .join(","),
-        );
-        out.push('\n');
-    }
-    out
+    write(dir, "tiny.toml", text)
 }
 
 fn count_results(dir: &Path) -> usize {
@@ -202,7 +149,7 @@ fn sigkill_mid_run_then_resume_gives_the_same_cases_csv() {
         "1",
         "--no-plots",
     ];
-    let mut child = Command::new(BIN)
+    let mut child = deformlab()
         .args(args)
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
@@ -435,17 +382,4 @@ fn plot_command_calls_every_configured_plot() {
         );
     }
     assert!(!err.contains("panicked"), "{err}");
-}
-
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        let p = e.path();
-        if p.is_dir() {
-            copy_dir(&p, &to.join(e.file_name()));
-        } else {
-            std::fs::copy(&p, to.join(e.file_name())).unwrap();
-        }
-    }
 }

@@ -5,6 +5,6 @@
 #[ignore = "benchmark: run explicitly"]
 fn fbt_benchmark() {
     let quick = std::env::var_os("FBT_BENCH_QUICK").is_some();
-    let report = deformlab::bench_fbt::run(quick).unwrap();
+    let report = deformlab::bench::fbt::run(quick).unwrap();
     println!("{report}");
 }

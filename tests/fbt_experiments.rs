@@ -2,8 +2,11 @@
 //! runs end to end (results, tables, plots), and bad `fbt` tables are
 //! rejected naming the key.
 
+mod common;
+
 use std::path::Path;
 
+use common::{csv_rows as rows, write};
 use deformlab::experiment::{load_config, parse_config, run_configs, RunOptions};
 
 const TINY: &str = r#"
@@ -70,25 +73,10 @@ file = "table"
 metrics = ["q", "rel_distortion_max", "alpha", "perm_correct", "seconds_solve"]
 "#;
 
-fn rows(path: &Path) -> Vec<std::collections::BTreeMap<String, String>> {
-    let mut r = csv::Reader::from_path(path).unwrap();
-    let h = r.headers().unwrap().clone();
-    r.records()
-        .map(|x| {
-            let x = x.unwrap();
-            h.iter()
-                .zip(x.iter())
-                .map(|(a, b)| (a.to_string(), b.to_string()))
-                .collect()
-        })
-        .collect()
-}
-
 #[test]
 fn tiny_fbt_config_runs_through_the_harness() {
     let t = tempfile::tempdir().unwrap();
-    let cfg = t.path().join("fbt-tiny.toml");
-    std::fs::write(&cfg, TINY).unwrap();
+    let cfg = write(t.path(), "fbt-tiny.toml", TINY);
     let out = t.path().join("results");
     let opts = RunOptions {
         out: out.clone(),

@@ -359,8 +359,7 @@ fn real_data_reports() {
 /// facts the data README states.
 #[test]
 fn real_data_survey() {
-    let Some(root) = deformlab::data::shared_data_dir() else {
-        eprintln!("SKIP real_data_survey: ../shared/data not found");
+    let Some(root) = shared_data_or_skip("", "real_data_survey") else {
         return;
     };
     for sub in [

@@ -1,23 +1,16 @@
 //! Mesh readers and writers: round trips, hand-made files in every accepted
 //! variant, malformed inputs (errors, never panics) and the real data.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
+use common::{tmp, write};
 use deformlab::data::shared_data_or_skip;
 use deformlab::mesh::io::{read_mesh, read_raw, write_obj, write_ply};
 use deformlab::mesh::primitives::{icosphere, torus};
 use deformlab::mesh::{Face, Mesh, RawMesh};
 use deformlab::Point;
-
-fn tmp() -> tempfile::TempDir {
-    tempfile::tempdir().expect("temp dir")
-}
-
-fn write(dir: &Path, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, bytes).expect("write test file");
-    p
-}
 
 /// A small mesh with coordinates that do not have short decimal forms.
 fn awkward_mesh() -> Mesh {

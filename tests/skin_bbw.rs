@@ -472,5 +472,5 @@ fn all_vertices_handles_and_single_handle() {
 #[ignore = "benchmark: cargo test --release --test skin_bbw -- --ignored --nocapture"]
 fn bench_skin_table() {
     let quick = std::env::var_os("BENCH_QUICK").is_some();
-    println!("{}", deformlab::bench_skin::run(quick).unwrap());
+    println!("{}", deformlab::bench::skin::run(quick).unwrap());
 }

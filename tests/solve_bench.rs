@@ -3,15 +3,15 @@
 
 #[test]
 fn quick_bench_runs_and_rejects_unknown_groups() {
-    let table = deformlab::bench::run(&["ops".into(), "cholesky".into()], true).unwrap();
+    let table = deformlab::bench::kernels::run(&["ops".into(), "cholesky".into()], true).unwrap();
     assert!(table.contains("| 7200 |"), "{table}");
     assert!(table.contains("faer 3 solves"));
-    assert!(deformlab::bench::run(&["nope".into()], true).is_err());
+    assert!(deformlab::bench::kernels::run(&["nope".into()], true).is_err());
 }
 
 #[test]
 #[ignore = "full benchmark, minutes"]
 fn full_benchmark() {
-    let table = deformlab::bench::run(&[], false).unwrap();
+    let table = deformlab::bench::kernels::run(&[], false).unwrap();
     println!("{table}");
 }

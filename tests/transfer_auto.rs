@@ -5,8 +5,9 @@
 //! also after B is turned upside down and rotated. And the CLI flag end to
 //! end.
 
-use std::process::Command;
+mod common;
 
+use common::{deformlab, stdout_ok};
 use deformlab::data::synthetic::FaustStyle;
 use deformlab::mesh::io::{read_mesh, write_ply};
 use deformlab::mesh::Mesh;
@@ -144,7 +145,7 @@ fn cli_auto_correspondence_end_to_end() {
         .map(|f| [n - 1 - f[0], n - 1 - f[1], n - 1 - f[2]])
         .collect();
     write_ply(&p("b.ply"), &Mesh::new(rev, faces).unwrap()).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_deformlab"))
+    let out = deformlab()
         .args(["transfer", "--source"])
         .arg(p("a.ply"))
         .arg("--deformed")
@@ -164,12 +165,7 @@ fn cli_auto_correspondence_end_to_end() {
         .arg(p("out"))
         .output()
         .unwrap();
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let text = stdout_ok(&out);
     assert!(text.contains("automatic correspondence"), "{text}");
     let result = read_mesh(&p("out").join("a1_to_b.ply")).unwrap();
     assert_eq!(result.n_vertices(), n);
@@ -192,7 +188,7 @@ fn cli_auto_correspondence_end_to_end() {
     let log = std::fs::read_to_string(p("out").join("log.json")).unwrap();
     assert!(log.contains("residual_sqrt_area"), "{log}");
     // A second run refuses to overwrite.
-    let again = Command::new(env!("CARGO_BIN_EXE_deformlab"))
+    let again = deformlab()
         .args(["transfer", "--source"])
         .arg(p("a.ply"))
         .arg("--deformed")

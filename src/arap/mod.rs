@@ -64,7 +64,7 @@
 //! from the 1-rings, `A` as one blocked dense product, and `CK` gathered per
 //! vertex (about 3n axpys of length 4n_h); no sparse matrix is assembled.
 //! On the 6890-vertex FAUST mesh with 12 handles this went from ~45 ms to
-//! ~6 ms of CPU per trial set (see `bench_bdt`).
+//! ~6 ms of CPU per trial set (see `bench::bdt`).
 //!
 //! **E_diff off (FAST ablation).** ARAP alone is invariant to rigid motions,
 //! so the data term is replaced by soft handle position constraints

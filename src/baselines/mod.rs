@@ -3,7 +3,7 @@
 //! - [`sumner`]: Sumner & Popović 2004, "Deformation transfer for triangle
 //!   meshes" — per-triangle deformation gradients, the transfer solve and
 //!   (in [`sumner_correspondence`]) their triangle correspondence step;
-//!   timing in [`bench`] (also as `sumner::bench`).
+//!   timing in `crate::bench::baselines`.
 //! - [`cage`]: Ben-Chen, Weber & Gotsman 2009, "Spatial deformation
 //!   transfer" — automatic box cages, mean-value coordinates, cage fits and
 //!   cage-to-cage deformation transfer (simplifications in its docs).
@@ -17,7 +17,6 @@
 //! - [`icp`]: the correspondence step both share with FBT's NICP.
 
 pub mod amberg;
-pub mod bench;
 pub mod cage;
 pub mod der;
 pub mod icp;

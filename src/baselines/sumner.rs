@@ -60,7 +60,6 @@ use std::time::Instant;
 
 use nalgebra::DMatrix;
 
-pub use super::bench::bench;
 use super::sumner_correspondence::{correspond, CorrespondenceOptions, CorrespondenceResult};
 use crate::mesh::{Face, Mesh};
 use crate::solve::{sparse_from_triplets, SparseCholesky};

@@ -31,20 +31,7 @@ use crate::register::{
 };
 use crate::{Mesh, Result};
 
-use crate::register::metrics::median;
-
-fn time<T>(reps: usize, mut f: impl FnMut() -> Result<T>) -> Result<(f64, T)> {
-    let mut times = Vec::with_capacity(reps);
-    let mut last = None;
-    for _ in 0..reps.max(1) {
-        let t = Instant::now();
-        let r = f()?;
-        times.push(t.elapsed().as_secs_f64());
-        last = Some(r);
-    }
-    let last = last.ok_or_else(|| crate::Error::invalid("no repetitions"))?;
-    Ok((median(times), last))
-}
+use super::time;
 
 /// The paper's q per class (Table 1).
 fn paper_q(class: &str) -> usize {

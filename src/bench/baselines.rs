@@ -13,8 +13,8 @@
 use std::fmt::Write as _;
 use std::time::Instant;
 
-use super::sumner::{DeformationTransfer, SumnerTransferOptions};
-use super::sumner_correspondence::{correspond, CorrespondenceOptions};
+use crate::baselines::sumner::{DeformationTransfer, SumnerTransferOptions};
+use crate::baselines::sumner_correspondence::{correspond, CorrespondenceOptions};
 use crate::data::read_markers_yml;
 use crate::data::synthetic::FaustStyle;
 use crate::mesh::io::read_mesh;

@@ -19,7 +19,6 @@
 //! not used by the algorithms.
 
 use std::fmt::Write as _;
-use std::time::Instant;
 
 use nalgebra::DMatrix;
 
@@ -28,7 +27,9 @@ use crate::mesh::primitives::icosphere;
 use crate::ops::{farthest_point_sampling, FpsMetric};
 use crate::skin::bbw::{BbwOptions, BbwReport, Biharmonic, WeightMode};
 use crate::skin::lbs::{lbs, transforms_to_stacked, Affine, LbsMatrix};
-use crate::{Error, Mesh, Result};
+use crate::{Mesh, Result};
+
+use super::{load_average, pool, time, time_cpu};
 
 /// The libigl reference of issue 3, quoted as given (settings not recorded).
 pub const LIBIGL_REFERENCE: &str = "libigl bbw measured 0.21 s/handle on this machine";
@@ -41,59 +42,6 @@ pub const LIBIGL_MEASURED: &str = "libigl 2.6.3 (Python wheel) igl.bbw with its 
      3.2 s/handle wall, 1.55 s/handle CPU (load average 8.1, 1 thread); it needs 13–96 \
      active-set iterations per handle. Its weights differ from PerHandle's (before \
      normalisation) by at most 3.6e-6 (tol 1e-8) / 2.7e-7 (tol 1e-11)";
-
-use crate::register::metrics::median;
-
-/// Median wall time (s) of `f` over `reps` runs and the last result.
-fn time<T>(reps: usize, mut f: impl FnMut() -> Result<T>) -> Result<(f64, T)> {
-    let mut times = Vec::with_capacity(reps);
-    let mut last = None;
-    for _ in 0..reps.max(1) {
-        let t = Instant::now();
-        let r = f()?;
-        times.push(t.elapsed().as_secs_f64());
-        last = Some(r);
-    }
-    let last = last.ok_or_else(|| Error::invalid("no repetitions"))?;
-    Ok((median(times), last))
-}
-
-/// CPU time (s) used so far by the live threads of this process, from
-/// `/proc/self/task/*/schedstat` (Linux); `None` where unavailable.
-fn cpu_seconds() -> Option<f64> {
-    let mut ns = 0u64;
-    let mut any = false;
-    for entry in std::fs::read_dir("/proc/self/task").ok()?.flatten() {
-        let Ok(text) = std::fs::read_to_string(entry.path().join("schedstat")) else {
-            continue;
-        };
-        if let Some(v) = text
-            .split_whitespace()
-            .next()
-            .and_then(|t| t.parse::<u64>().ok())
-        {
-            ns += v;
-            any = true;
-        }
-    }
-    any.then_some(ns as f64 * 1e-9)
-}
-
-/// Like [`time`], also returning the median CPU time (all threads of the
-/// process; `NaN` if unavailable) of the runs.
-fn time_cpu<T>(reps: usize, mut f: impl FnMut() -> Result<T>) -> Result<(f64, f64, T)> {
-    let mut cpu = Vec::with_capacity(reps);
-    let (wall, last) = time(reps, || {
-        let c0 = cpu_seconds();
-        let r = f()?;
-        cpu.push(match (c0, cpu_seconds()) {
-            (Some(a), Some(b)) => b - a,
-            _ => f64::NAN,
-        });
-        Ok(r)
-    })?;
-    Ok((wall, median(cpu), last))
-}
 
 fn bench_mesh(out: &mut String) -> Result<Mesh> {
     let path = crate::data::shared_data_dir().map(|d| d.join("faust/tr_reg_001.ply"));
@@ -115,13 +63,6 @@ fn bench_mesh(out: &mut String) -> Result<Mesh> {
     }
 }
 
-fn load_average() -> String {
-    std::fs::read_to_string("/proc/loadavg")
-        .ok()
-        .and_then(|s| s.split_whitespace().next().map(str::to_string))
-        .unwrap_or_else(|| "n/a".into())
-}
-
 /// `min–median–max` of a list of counts.
 fn spread(v: &[usize]) -> String {
     if v.is_empty() {
@@ -130,13 +71,6 @@ fn spread(v: &[usize]) -> String {
     let mut s = v.to_vec();
     s.sort_unstable();
     format!("{}–{}–{}", s[0], s[s.len() / 2], s[s.len() - 1])
-}
-
-fn pool(threads: usize) -> Result<rayon::ThreadPool> {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| Error::numerical(format!("cannot build a {threads}-thread pool: {e}")))
 }
 
 /// One weights row of the table.

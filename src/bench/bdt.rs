@@ -35,6 +35,8 @@ use crate::transfer::keypoints::{
 };
 use crate::{Mesh, Result};
 
+use super::time;
+
 /// Appends a line to the table and echoes it to stderr (progress).
 macro_rules! emit {
     ($out:expr, $($arg:tt)*) => {{
@@ -43,8 +45,6 @@ macro_rules! emit {
         let _ = writeln!($out, "{line}");
     }};
 }
-
-use crate::register::metrics::median;
 
 /// Source and up to three deformed sources (FAUST sample or synthetic).
 fn bench_meshes(out: &mut String) -> Result<(Mesh, Vec<Mesh>)> {
@@ -146,15 +146,7 @@ pub fn run(quick: bool, full_exact: bool) -> Result<String> {
             mode: SelectionMode::Fast,
             ..Default::default()
         };
-        let mut times = Vec::new();
-        let mut last = None;
-        for _ in 0..reps {
-            let t = Instant::now();
-            let sel = select_keypoints(&source, &deformed[..m], &opts)?;
-            times.push(t.elapsed().as_secs_f64());
-            last = Some(sel);
-        }
-        let Some(sel) = last else { continue };
+        let (t_sel, sel) = time(reps, || select_keypoints(&source, &deformed[..m], &opts))?;
         let s1 = sel.trace.iter().filter(|s| s.stage == 1).count();
         emit!(
             out,
@@ -164,7 +156,7 @@ pub fn run(quick: bool, full_exact: bool) -> Result<String> {
             sel.evaluations,
             sel.repeated_trials,
             sel.error,
-            median(times)
+            t_sel
         );
         fast_runs.push((m, sel));
     }
@@ -192,16 +184,12 @@ pub fn run(quick: bool, full_exact: bool) -> Result<String> {
                 mode: SelectionMode::Exact,
                 ..Default::default()
             };
-            let mut times = Vec::new();
-            for _ in 0..trial_reps {
-                let t = Instant::now();
-                // Includes the per-run setup (normalisation, features,
-                // biharmonic operator) that a selection does once: an
-                // upper bound on the per-trial cost.
-                fit_keypoints(&source, &deformed[..m], &cands[..k], &opts)?;
-                times.push(t.elapsed().as_secs_f64());
-            }
-            let med = median(times);
+            // Includes the per-run setup (normalisation, features,
+            // biharmonic operator) that a selection does once: an upper
+            // bound on the per-trial cost.
+            let (med, _) = time(trial_reps, || {
+                fit_keypoints(&source, &deformed[..m], &cands[..k], &opts)
+            })?;
             emit!(out, "| exact | {m} | {k} | {med:.3} |");
             pts.push((k, med));
         }

@@ -1,7 +1,7 @@
 //! Benchmarks of the numerical core, as plain functions that return a printed
-//! table (the CLI's `deformlab bench` calls [`run`]). Medians over repeated
-//! runs: at least 5 repetitions for the small size, 3 for the larger ones
-//! (1 for the slow nalgebra-sparse comparison at 50k).
+//! table (`deformlab bench` calls [`run`] through [`super::run`]). Medians
+//! over repeated runs: at least 5 repetitions for the small size, 3 for the
+//! larger ones (1 for the slow nalgebra-sparse comparison at 50k).
 //!
 //! Meshes are tori `torus(1.0, 0.5, nu, nv)` with `nu = 2 nv`, so triangles
 //! are nearly uniform: 120×60 = **7 200**, 316×158 = **49 928** and
@@ -21,7 +21,6 @@
 //!   banded, bandwidth ≈ 2·nv).
 
 use std::fmt::Write as _;
-use std::time::Instant;
 
 use nalgebra::DMatrix;
 
@@ -33,6 +32,8 @@ use crate::solve::{
 };
 use crate::{Error, Result};
 
+use super::time;
+
 /// Benchmark group names accepted by [`run`].
 pub const GROUPS: [&str; 5] = ["ops", "cholesky", "biharmonic", "eigen", "nalgebra"];
 
@@ -41,20 +42,6 @@ const SIZES: [(usize, usize); 3] = [(120, 60), (316, 158), (632, 316)];
 
 fn bench_mesh(nu: usize, nv: usize) -> Mesh {
     torus(1.0, 0.5, nu, nv)
-}
-
-/// Median wall time (seconds) of `reps` runs of `f`; `f` returns a value that
-/// is kept alive so the work is not optimised away.
-fn median<T>(reps: usize, mut f: impl FnMut() -> Result<T>) -> Result<f64> {
-    let mut t = Vec::with_capacity(reps);
-    for _ in 0..reps.max(1) {
-        let start = Instant::now();
-        let out = f()?;
-        t.push(start.elapsed().as_secs_f64());
-        drop(out);
-    }
-    t.sort_by(f64::total_cmp);
-    Ok(t[t.len() / 2])
 }
 
 fn plus_eps_mass(a: &SparseMatrix, m: &[f64], eps: f64) -> SparseMatrix {
@@ -101,7 +88,7 @@ pub fn run(which: &[String], quick: bool) -> Result<String> {
         let n = mesh.n_vertices();
         let r = reps(si);
         if want("ops") {
-            let t = median(r, || {
+            let (t, _) = time(r, || {
                 Ok((
                     cotan_laplacian(&mesh),
                     mass_matrix(&mesh, MassKind::Voronoi),
@@ -117,7 +104,7 @@ pub fn run(which: &[String], quick: bool) -> Result<String> {
             systems.push(("L + 1e-3 M", a.clone()));
         }
         if want("biharmonic") {
-            let t = median(r, || Ok(biharmonic(&l, &m)))?;
+            let (t, _) = time(r, || Ok(biharmonic(&l, &m)))?;
             row(
                 "biharmonic assembly L M⁻¹ L + 1e-3 M",
                 n,
@@ -128,7 +115,7 @@ pub fn run(which: &[String], quick: bool) -> Result<String> {
             systems.push(("L M⁻¹ L + 1e-3 M", biharmonic(&l, &m)));
         }
         for (name, sys) in &systems {
-            let t = median(r, || SparseCholesky::new(sys))?;
+            let (t, _) = time(r, || SparseCholesky::new(sys))?;
             let chol = SparseCholesky::new(sys)?;
             row(
                 &format!("faer LLᵀ factorise {name}"),
@@ -138,7 +125,7 @@ pub fn run(which: &[String], quick: bool) -> Result<String> {
                 &format!("AMD, factor nnz {}", chol.symbolic().factor_nnz()),
             );
             let bs: Vec<Vec<f64>> = (0..3).map(|j| rhs(n, j)).collect();
-            let t = median(r, || {
+            let (t, _) = time(r, || {
                 bs.iter()
                     .map(|b| chol.try_solve_vec(b))
                     .collect::<Result<Vec<_>>>()
@@ -157,7 +144,7 @@ pub fn run(which: &[String], quick: bool) -> Result<String> {
         }
         if want("eigen") && si < 2 {
             let mut info = String::new();
-            let t = median(r, || {
+            let (t, _) = time(r, || {
                 let e = generalized_eigen(&l, &m, 20, &EigenOptions::default())?;
                 info = format!(
                     "max residual {:.1e}, orth. {:.1e}, λ1..3 ≈ {:.4}",
@@ -172,7 +159,7 @@ pub fn run(which: &[String], quick: bool) -> Result<String> {
             let mut mats = vec![("L + 1e-3 M", a.clone())];
             mats.push(("L M⁻¹ L + 1e-3 M", biharmonic(&l, &m)));
             for (name, sys) in &mats {
-                let t = median(nr, || {
+                let (t, _) = time(nr, || {
                     nalgebra_sparse::factorization::CscCholesky::factor(sys)
                         .map_err(|e| Error::numerical(format!("nalgebra-sparse Cholesky: {e}")))
                 })?;
@@ -187,7 +174,7 @@ pub fn run(which: &[String], quick: bool) -> Result<String> {
                 );
                 let bs: Vec<DMatrix<f64>> =
                     (0..3).map(|j| DMatrix::from_vec(n, 1, rhs(n, j))).collect();
-                let t = median(nr, || Ok(bs.iter().map(|b| f.solve(b)).collect::<Vec<_>>()))?;
+                let (t, _) = time(nr, || Ok(bs.iter().map(|b| f.solve(b)).collect::<Vec<_>>()))?;
                 row(&format!("nalgebra-sparse 3 solves {name}"), n, t, nr, "");
             }
         }

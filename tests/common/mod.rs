@@ -1,0 +1,141 @@
+//! Scaffolding shared by the integration tests (`mod common;` in each test
+//! file): the built `deformlab` binary, temporary folders, small files and
+//! configs, result CSVs without their timing columns, folder copies.
+//!
+//! Real data: `deformlab::data::shared_data_or_skip` (the
+//! `DEFORMLAB_SHARED_DATA` or `../shared/data` folder, or `None` after
+//! printing `SKIP <test>: ...`).
+//!
+//! Each test binary compiles its own copy of this module and uses only part
+//! of it, hence the `dead_code` allowance.
+#![allow(dead_code)]
+
+use std::collections::BTreeMap;
+use std::ffi::OsStr;
+use std::fmt::Debug;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The `deformlab` binary built for these tests.
+pub const BIN: &str = env!("CARGO_BIN_EXE_deformlab");
+
+/// The binary as a command, without a `DEFORMLAB_RUN_MAX_NEW` inherited
+/// from the environment (it would stop `run` early).
+pub fn deformlab() -> Command {
+    let mut c = Command::new(BIN);
+    c.env_remove("DEFORMLAB_RUN_MAX_NEW");
+    c
+}
+
+/// Runs the binary with `args` to the end and returns its output.
+pub fn run<S: AsRef<OsStr>>(args: &[S]) -> Output {
+    deformlab().args(args).output().expect("spawn deformlab")
+}
+
+/// Like [`run`], asserting success (the failure message shows the arguments,
+/// stdout and stderr).
+#[track_caller]
+pub fn ok<S: AsRef<OsStr> + Debug>(args: &[S]) -> Output {
+    let o = run(args);
+    assert!(
+        o.status.success(),
+        "deformlab {args:?} failed:\n{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    o
+}
+
+/// Asserts that a finished run succeeded (the failure message shows stdout
+/// and stderr) and returns its stdout.
+#[track_caller]
+pub fn stdout_ok(out: &Output) -> String {
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    text
+}
+
+/// A fresh temporary folder, removed when dropped.
+pub fn tmp() -> tempfile::TempDir {
+    tempfile::tempdir().expect("temp dir")
+}
+
+/// Writes `dir/name` (creating `dir` if needed) and returns its path: mesh
+/// files, tiny configs, correspondence files.
+pub fn write(dir: &Path, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
+    std::fs::create_dir_all(dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).unwrap();
+    p
+}
+
+/// Copies the folder `from` to `to`, recursively.
+pub fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let p = e.path();
+        if p.is_dir() {
+            copy_dir(&p, &to.join(e.file_name()));
+        } else {
+            std::fs::copy(&p, to.join(e.file_name())).unwrap();
+        }
+    }
+}
+
+/// The rows of a CSV file as maps column name → cell.
+pub fn csv_rows(path: &Path) -> Vec<BTreeMap<String, String>> {
+    let mut r = csv::Reader::from_path(path).unwrap();
+    let head = r.headers().unwrap().clone();
+    r.records()
+        .map(|rec| {
+            let rec = rec.unwrap();
+            head.iter()
+                .zip(rec.iter())
+                .map(|(h, c)| (h.to_string(), c.to_string()))
+                .collect()
+        })
+        .collect()
+}
+
+/// A CSV (header first) with the columns named `seconds_*` removed, and the
+/// rows whose `metric` column (summary.csv) names a `seconds_*` column.
+pub fn csv_without_timing(path: &Path) -> Vec<Vec<String>> {
+    without_timing(path, true).0
+}
+
+/// `dir/cases.csv` without its timing columns (`seconds_*`), as text; it
+/// must have some.
+pub fn cases_without_timing(dir: &Path) -> String {
+    let (rows, dropped) = without_timing(&dir.join("cases.csv"), false);
+    assert!(dropped > 0, "timing columns expected");
+    rows.iter().map(|r| r.join(",") + "\n").collect()
+}
+
+/// The rows of a CSV (header first) without its `seconds_*` columns (and,
+/// with `timing_metrics`, without the rows whose `metric` is a `seconds_*`
+/// column), and the number of columns removed.
+fn without_timing(path: &Path, timing_metrics: bool) -> (Vec<Vec<String>>, usize) {
+    let mut rdr = csv::Reader::from_path(path).unwrap();
+    let header: Vec<String> = rdr.headers().unwrap().iter().map(String::from).collect();
+    let keep: Vec<usize> = (0..header.len())
+        .filter(|&i| !header[i].starts_with("seconds_"))
+        .collect();
+    let metric = header
+        .iter()
+        .position(|h| h == "metric")
+        .filter(|_| timing_metrics);
+    let mut rows = vec![keep.iter().map(|&i| header[i].clone()).collect::<Vec<_>>()];
+    for rec in rdr.records() {
+        let rec = rec.unwrap();
+        if metric.is_some_and(|m| rec[m].starts_with("seconds_")) {
+            continue;
+        }
+        rows.push(keep.iter().map(|&i| rec[i].to_string()).collect());
+    }
+    (rows, header.len() - keep.len())
+}
