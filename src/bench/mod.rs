@@ -25,6 +25,7 @@ use crate::{Error, Result};
 pub mod baselines;
 pub mod bdt;
 pub mod fbt;
+pub mod fig14;
 pub mod kernels;
 pub mod skin;
 
@@ -93,19 +94,11 @@ pub fn run(groups: &[String], opts: &BenchOptions, out: &mut dyn Write) -> Resul
         put("\n## Baselines: Sumner & Popović deformation transfer (cat → lion)\n\n")?;
         put(&baselines::bench(quick)?)?;
         put("\n## Baselines on the synthetic Fig. 14 cases\n\n")?;
-        put(&fig14(quick)?)?;
+        put(&fig14::run(quick)?)?;
         put("\n## Baselines on the FBT Fig. 7 completion case (Der et al., Amberg NICP)\n\n")?;
         put(&baselines::bench_registration(quick)?)?;
     }
     Ok(())
-}
-
-/// The `baselines` group's Fig. 14 timings (Sumner with BDT key points, the
-/// Sumner oracle, cage DT on the synthetic Fig. 14 cases).
-// TODO(issue 15): `bench_fig14` still lives in `experiment::baselines`; it
-// moves here (e.g. `bench/fig14.rs`) once that file's rewrite is merged.
-fn fig14(quick: bool) -> Result<String> {
-    crate::experiment::baselines::bench_fig14(quick)
 }
 
 /// Median wall time (s) of `reps` runs of `f` (at least one) and the result

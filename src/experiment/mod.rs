@@ -9,7 +9,6 @@
 //!
 //! Results folder layout: see [`store`].
 
-pub mod baselines;
 pub mod cases;
 pub mod config;
 pub mod dataset;
