@@ -60,7 +60,6 @@ use std::time::Instant;
 
 use nalgebra::DMatrix;
 
-use super::sumner_correspondence::{correspond, CorrespondenceOptions, CorrespondenceResult};
 use crate::mesh::{Face, Mesh};
 use crate::solve::{sparse_from_triplets, SparseCholesky};
 use crate::{Error, Mat3, Point, Result, Vec3};
@@ -531,22 +530,6 @@ impl DeformationTransfer {
         })?;
         dt.factor_seconds = t0.elapsed().as_secs_f64();
         Ok(dt)
-    }
-
-    /// The full pipeline for meshes with different connectivity: the
-    /// correspondence step ([`correspond`]) with the marker pairs `(source
-    /// vertex, target vertex)`, then [`DeformationTransfer::new`] on its
-    /// triangle pairs.
-    pub fn from_markers(
-        source_reference: &Mesh,
-        target_reference: &Mesh,
-        markers: &[(usize, usize)],
-        correspondence: &CorrespondenceOptions,
-        opts: &SumnerTransferOptions,
-    ) -> Result<(Self, CorrespondenceResult)> {
-        let res = correspond(source_reference, target_reference, markers, correspondence)?;
-        let dt = Self::new(source_reference, target_reference, &res.triangles, opts)?;
-        Ok((dt, res))
     }
 
     /// What was skipped or filled in (see the module documentation).

@@ -56,7 +56,10 @@ use std::time::Instant;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::DMatrix;
 
-use super::sumner::{face_adjacency, inverse_frames, TriangleCorrespondence};
+use super::sumner::{
+    face_adjacency, inverse_frames, DeformationTransfer, SumnerTransferOptions,
+    TriangleCorrespondence,
+};
 use crate::mesh::Mesh;
 use crate::ops::closest_point_on_triangle;
 use crate::ops::{face_normals, vertex_faces, vertex_normals};
@@ -587,5 +590,25 @@ mod tests {
             let got = closest_point_on_triangle(&p, &a, &b, &c);
             assert!((got - want).norm() < 1e-12, "{p} → {got}, want {want}");
         }
+    }
+}
+
+/// The full Sumner–Popović pipeline (in this module, beside the
+/// correspondence step it runs first, so that `sumner` does not import it).
+impl DeformationTransfer {
+    /// The full pipeline for meshes with different connectivity: the
+    /// correspondence step ([`correspond`]) with the marker pairs `(source
+    /// vertex, target vertex)`, then [`DeformationTransfer::new`] on its
+    /// triangle pairs.
+    pub fn from_markers(
+        source_reference: &Mesh,
+        target_reference: &Mesh,
+        markers: &[(usize, usize)],
+        correspondence: &CorrespondenceOptions,
+        opts: &SumnerTransferOptions,
+    ) -> Result<(Self, CorrespondenceResult)> {
+        let res = correspond(source_reference, target_reference, markers, correspondence)?;
+        let dt = Self::new(source_reference, target_reference, &res.triangles, opts)?;
+        Ok((dt, res))
     }
 }

@@ -22,5 +22,5 @@ pub use cases::{generate_cases, Case};
 pub use config::{load_config, parse_config, Config, LoadedConfig, Method, NamedMethod};
 pub use dataset::Collection;
 pub use plots::make_plots;
-pub use runner::{merge, run_configs, RunOptions, RunSummary, Shard};
-pub use store::{CaseResult, Store, CASE_COLUMNS};
+pub use runner::{merge, run_configs, RunOptions, RunSummary};
+pub use store::{read_manifest, CaseResult, Manifest, Shard, Store, CASE_COLUMNS};

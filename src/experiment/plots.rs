@@ -12,8 +12,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use super::config::{Config, PlotKind, PlotSpec};
-use super::runner::read_manifest;
-use super::store::describe;
+use super::store::{describe, read_manifest};
 use crate::eval::{vertex_errors, ErrorScale};
 use crate::mesh::io::read_mesh;
 use crate::mesh::Mesh;
