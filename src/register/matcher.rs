@@ -1,11 +1,12 @@
 //! The correspondence step of every nonrigid ICP loop of the registration
-//! methods: FBT's [`super::nicp`] (steps 1–2 there) and the baselines
-//! [`crate::baselines::der`] and [`crate::baselines::amberg`], with the
-//! options of [`NicpOptions`]: for each sampled template vertex, the `neighbours` nearest target
-//! vertices (kd-tree on the target, built once) are examined and the
-//! nearest one whose normal makes an angle below `max_normal_angle_deg`
-//! with the deformed template's vertex normal is its match; pairs farther
-//! than `max_distance · √A` (A = template area), pairs without a compatible
+//! methods: FBT's [`super::nicp`] (steps 1–2 there) and the Der et al. and
+//! Amberg et al. baselines (which use it from above: `register` imports no
+//! baseline), with the options of [`NicpOptions`]. For each sampled
+//! template vertex, the `neighbours` nearest target vertices (a
+//! [`PointIndex`] on the target, built once) are examined and the nearest
+//! one whose normal makes an angle below `max_normal_angle_deg` with the
+//! deformed template's vertex normal is its match; pairs farther than
+//! `max_distance · √A` (A = template area), pairs without a compatible
 //! normal and — for partial targets — pairs whose target vertex lies on the
 //! target's boundary are rejected.
 
