@@ -1,5 +1,5 @@
 //! The correspondence step of every nonrigid ICP loop of the registration
-//! methods: FBT's [`super::nicp`] (steps 1–2 there) and the Der et al. and
+//! methods: FBT's [`nicp`](mod@super::nicp) (steps 1–2 there) and the Der et al. and
 //! Amberg et al. baselines (which use it from above: `register` imports no
 //! baseline), with the options of [`NicpOptions`]. For each sampled
 //! template vertex, the `neighbours` nearest target vertices (a

@@ -14,7 +14,7 @@
 //!
 //! Contents: energies and their optimisation ([`solver`]), the paper's
 //! schedule ([`pipeline`]), constraints including the geodesic-circle
-//! feature constraints ([`constraints`]), nonrigid ICP ([`nicp`]) and its
+//! feature constraints ([`constraints`]), nonrigid ICP ([`nicp`](mod@nicp)) and its
 //! closest-point matcher ([`matcher`], shared with the baselines), the
 //! crate's nearest-neighbour index ([`spatial`]), automatic feature
 //! correspondence and shape interpolation ([`correspondence`]), error

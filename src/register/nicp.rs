@@ -22,11 +22,11 @@
 //!    on the synthetic class (β_lc = 1000, 8 features × 10 circles, 600
 //!    samples): a total of 1–4 feature rows works best; per-row weights as
 //!    large as a feature row's overfit the closest-point noise.
-//! 4. **Solve** ([`minimal_step`], shared with the automatic
-//!    correspondence of [`crate::transfer::auto`]). A new [`FbtSystem`] for
-//!    this `H` (X and Γ factorised, of cost O(h b² + b³)) and
-//!    `inner_iterations` of the minimal energy E_mn warm-started from the
-//!    previous transformations.
+//! 4. **Solve** ([`minimal_step`], also the solve of the automatic
+//!    correspondence's nonrigid ICP in `transfer::auto`). A new
+//!    [`FbtSystem`] for this `H` (X and Γ factorised, of cost
+//!    O(h b² + b³)) and `inner_iterations` of the minimal energy E_mn
+//!    warm-started from the previous transformations.
 //!
 //! Only a subset of points needs matching because the deformation lives in
 //! the dictionary's span (the paper's remark). The result keeps the mean
