@@ -67,3 +67,43 @@ impl PointIndex {
             .collect()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nearest_matches_brute_force() {
+        // Points on a skewed grid (distinct distances to the queries).
+        let pts: Vec<Point> = (0..60)
+            .map(|i| {
+                let f = i as f64;
+                Point::new((f * 0.37).sin(), (f * 0.71).cos(), f * 0.013)
+            })
+            .collect();
+        let index = PointIndex::new(&pts).unwrap();
+        for q in [
+            Point::new(0.1, 0.2, 0.3),
+            Point::new(-0.9, 0.4, 0.0),
+            pts[17],
+        ] {
+            let mut brute: Vec<(f64, usize)> = pts
+                .iter()
+                .enumerate()
+                .map(|(i, p)| ((p - q).norm_squared(), i))
+                .collect();
+            brute.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let (i, d) = index.nearest(&q);
+            assert_eq!(i, brute[0].1);
+            assert!((d - brute[0].0.sqrt()).abs() < 1e-12);
+            let hits = index.nearest_n(&q, 5);
+            assert_eq!(hits.len(), 5);
+            for (h, b) in hits.iter().zip(&brute) {
+                assert_eq!(h.index, b.1);
+                assert!((h.distance() - b.0.sqrt()).abs() < 1e-12);
+            }
+            // k = 0 is one neighbour.
+            assert_eq!(index.nearest_n(&q, 0).len(), 1);
+        }
+    }
+}
