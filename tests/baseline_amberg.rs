@@ -4,15 +4,12 @@
 //! registered closer than the undeformed template.
 
 use deformlab::baselines::{amberg_nicp, AmbergOptions};
-use deformlab::data::partial::{feature_points, make_partial, PartialOptions};
 use deformlab::mesh::primitives::torus;
 use deformlab::mesh::Mesh;
+use deformlab::methods::completion::{CompletionProblem, FeatureOptions};
 use deformlab::ops::rotation::rotation_exp_axis_angle;
-use deformlab::ops::{farthest_point_sampling, mass_matrix, FpsMetric, MassKind};
-use deformlab::register::{
-    apply_rows, circle_radii, feature_circle_constraints, metrics, synthetic_class, vertex_rows,
-    NicpOptions,
-};
+use deformlab::ops::{farthest_point_sampling, FpsMetric};
+use deformlab::register::{apply_rows, metrics, synthetic_class, vertex_rows, NicpOptions};
 use deformlab::{Mat3, Point, Vec3};
 use nalgebra::DMatrix;
 
@@ -99,30 +96,20 @@ fn identical_template_and_target_stay_put() {
 fn partial_target_is_registered_closer_than_the_template() {
     let class = synthetic_class(1, 0).unwrap();
     let (reference, target) = (&class[0], &class[4]);
-    let area: f64 = mass_matrix(reference, MassKind::Voronoi).iter().sum();
-    let feats = feature_points(target, 8, 21).unwrap();
-    let partial = make_partial(
+    let problem = CompletionProblem::new(
+        std::slice::from_ref(reference),
         target,
-        &feats,
-        &PartialOptions {
-            seed: 21,
-            ..Default::default()
-        },
+        &FeatureOptions::default(),
+        21,
     )
     .unwrap();
-    let pairs: Vec<(usize, usize)> = feats
-        .iter()
-        .zip(&partial.features)
-        .map(|(&f, &g)| (f, g))
-        .collect();
-    let radii = circle_radii(10, 0.15 * area.sqrt());
-    let (rows, y) = feature_circle_constraints(reference, &partial.mesh, &pairs, &radii).unwrap();
+    let (area, partial, (rows, y)) = (problem.area(), problem.partial(), problem.constraints());
     let opts = AmbergOptions {
         stiffness: vec![100.0, 20.0, 5.0, 1.0],
         max_inner: 3,
         ..AmbergOptions::default()
     };
-    let res = amberg_nicp(reference, &partial.mesh, (&rows, &y), &opts).unwrap();
+    let res = amberg_nicp(reference, &partial.mesh, (rows, y), &opts).unwrap();
     let tv = target.vertices();
     let d0 = metrics::mean(&metrics::relative_distortion(reference.vertices(), tv, area).unwrap());
     let d1 = metrics::mean(&metrics::relative_distortion(&res.positions, tv, area).unwrap());

@@ -5,14 +5,11 @@
 //! loop on a partial target lowers the distortion of the template.
 
 use deformlab::baselines::{DerModel, DerOptions, DerState};
-use deformlab::data::partial::{feature_points, make_partial, PartialOptions};
 use deformlab::mesh::Mesh;
+use deformlab::methods::completion::{CompletionProblem, FeatureOptions};
 use deformlab::ops::rotation::rotation_exp_axis_angle;
-use deformlab::ops::{farthest_point_sampling, mass_matrix, FpsMetric, MassKind};
-use deformlab::register::{
-    apply_rows, circle_radii, feature_circle_constraints, metrics, synthetic_class, vertex_rows,
-    NicpOptions,
-};
+use deformlab::ops::{farthest_point_sampling, FpsMetric};
+use deformlab::register::{apply_rows, metrics, synthetic_class, vertex_rows, NicpOptions};
 use deformlab::{Mat3, Point, Vec3};
 use nalgebra::DVector;
 
@@ -32,10 +29,6 @@ fn clusters(mesh: &Mesh, r: usize) -> Vec<usize> {
                 .unwrap()
         })
         .collect()
-}
-
-fn area(m: &Mesh) -> f64 {
-    mass_matrix(m, MassKind::Voronoi).iter().sum()
 }
 
 fn bbox_diag(m: &Mesh) -> f64 {
@@ -176,30 +169,14 @@ fn completion_on_a_partial_target_reduces_distortion() {
     let target = &class[7];
     let cl = clusters(&ex[0], 16);
     let model = DerModel::new(&ex, &cl).unwrap();
-    let a = area(&ex[0]);
-    let feats = feature_points(target, 8, 11).unwrap();
-    let partial = make_partial(
-        target,
-        &feats,
-        &PartialOptions {
-            seed: 11,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let pairs: Vec<(usize, usize)> = feats
-        .iter()
-        .zip(&partial.features)
-        .map(|(&f, &g)| (f, g))
-        .collect();
-    let radii = circle_radii(10, 0.15 * a.sqrt());
-    let (rows, y) = feature_circle_constraints(&ex[0], &partial.mesh, &pairs, &radii).unwrap();
+    let problem = CompletionProblem::new(&ex, target, &FeatureOptions::default(), 11).unwrap();
+    let (a, partial, (rows, y)) = (problem.area(), problem.partial(), problem.constraints());
     let opts = DerOptions::default();
-    let prob = model.problem(&rows, &y, opts.beta).unwrap();
+    let prob = model.problem(rows, y, opts.beta).unwrap();
     let reg = model.register(&prob, &opts).unwrap();
     let res = model
         .nicp(
-            (&rows, &y),
+            (rows, y),
             &partial.mesh,
             &reg.state,
             &NicpOptions {

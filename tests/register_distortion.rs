@@ -7,10 +7,10 @@
 //! here it depends only weakly on q (printed; q = 8 must not be worse
 //! than q = 1).
 
-use deformlab::data::partial::{feature_points, make_partial, PartialOptions};
 use deformlab::data::shared_data_or_skip;
 use deformlab::data::ToscaFolder;
 use deformlab::mesh::set::adopt_consistent_faces;
+use deformlab::methods::completion::{CompletionProblem, FeatureOptions};
 use deformlab::register::*;
 use deformlab::skin::dictionary::{Dictionary, SkinningWeights};
 use deformlab::skin::lbo::lbo_basis;
@@ -45,30 +45,16 @@ fn curves(
                 );
                 // Fig. 7 protocol: partial target, 8 features, geodesic
                 // circles, blended transformations, then NICP.
-                let feats = feature_points(target, 8, k as u64).unwrap();
-                let partial = make_partial(
-                    target,
-                    &feats,
-                    &PartialOptions {
-                        seed: k as u64,
-                        ..Default::default()
-                    },
-                )
-                .unwrap();
-                let radii = circle_radii(10, 0.15 * area.sqrt());
-                let pairs: Vec<(usize, usize)> = feats
-                    .iter()
-                    .zip(&partial.features)
-                    .map(|(&f, &g)| (f, g))
-                    .collect();
-                let (rows, y) =
-                    feature_circle_constraints(&ex[0], &partial.mesh, &pairs, &radii).unwrap();
-                let sys = setup.pipeline.systems(&rows, &params).unwrap();
-                let reg = sys.solve(&y, &Schedule::default()).unwrap();
+                let problem =
+                    CompletionProblem::new(ex, target, &FeatureOptions::default(), k as u64)
+                        .unwrap();
+                let (partial, (rows, y)) = (problem.partial(), problem.constraints());
+                let sys = setup.pipeline.systems(rows, &params).unwrap();
+                let reg = sys.solve(y, &Schedule::default()).unwrap();
                 let res = nicp(
                     setup.pipeline.last(),
                     &params,
-                    (&rows, &y),
+                    (rows, y),
                     &partial.mesh,
                     &reg.t,
                     reg.alpha,

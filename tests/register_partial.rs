@@ -1,6 +1,7 @@
 //! Partial targets (FBT Sec. 5) and nonrigid ICP on them.
 
 use deformlab::data::partial::{feature_points, make_partial, PartialOptions};
+use deformlab::methods::completion::{CompletionProblem, FeatureOptions};
 use deformlab::ops::{boundary_vertices, dijkstra_distances, total_area};
 use deformlab::register::*;
 
@@ -70,26 +71,11 @@ fn nicp_on_a_partial_target_reduces_the_error_of_the_initialisation() {
     let mut gains = Vec::new();
     for (k, &pose) in [7usize, 9, 6].iter().enumerate() {
         let full = &meshes[pose];
-        let feats = feature_points(full, 8, k as u64).unwrap();
-        let partial = make_partial(
-            full,
-            &feats,
-            &PartialOptions {
-                seed: k as u64,
-                ..Default::default()
-            },
-        )
-        .unwrap();
-        let radii = circle_radii(10, 0.15 * area.sqrt());
-        let pairs: Vec<(usize, usize)> = feats
-            .iter()
-            .zip(&partial.features)
-            .map(|(&a, &b)| (a, b))
-            .collect();
-        let (rows, y) =
-            feature_circle_constraints(&examples[0], &partial.mesh, &pairs, &radii).unwrap();
-        let sys = setup.pipeline.systems(&rows, &params).unwrap();
-        let reg = sys.solve(&y, &Schedule::default()).unwrap();
+        let problem =
+            CompletionProblem::new(&examples, full, &FeatureOptions::default(), k as u64).unwrap();
+        let (partial, (rows, y)) = (problem.partial(), problem.constraints());
+        let sys = setup.pipeline.systems(rows, &params).unwrap();
+        let reg = sys.solve(y, &Schedule::default()).unwrap();
         let before = metrics::mean(
             &metrics::relative_distortion(&reg.positions, full.vertices(), area).unwrap(),
         );
@@ -97,7 +83,7 @@ fn nicp_on_a_partial_target_reduces_the_error_of_the_initialisation() {
         let res = nicp(
             setup.pipeline.last(),
             &params,
-            (&rows, &y),
+            (rows, y),
             &partial.mesh,
             &reg.t,
             reg.alpha,

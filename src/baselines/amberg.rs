@@ -16,7 +16,7 @@
 //! per undirected edge, +1 / −1 at its ends) and `w_i ∈ {0, 1}`: 0 when the
 //! closest point is rejected — farther than `max_distance · √A`, normals
 //! more than `max_normal_angle_deg` apart, or on the boundary of a partial
-//! target (the rules and options of FBT's NICP, [`super::icp::Matcher`]).
+//! target (the rules and options of FBT's NICP, [`crate::register::Matcher`]).
 //! The landmarks are constraint rows (`h_r` weighted vertex averages, e.g.
 //! the feature circles of the completion experiment, targets `y_r`).
 //!
@@ -51,10 +51,9 @@
 
 use nalgebra::DMatrix;
 
-use super::icp::Matcher;
 use crate::mesh::Mesh;
 use crate::ops::{edges, mass_matrix, MassKind};
-use crate::register::{ConstraintRows, NicpOptions};
+use crate::register::{ConstraintRows, Matcher, NicpOptions};
 use crate::solve::{sparse_from_triplets, SymbolicCholesky};
 use crate::{Error, Point, Result, Vec3};
 

@@ -58,7 +58,7 @@
 //! [`DerModel::register`] starts from every example (`w = e_ℓ`, `R_g` the
 //! Kabsch rotation of the constrained example points onto `Y`) and keeps
 //! the lowest energy, like FBT's E_mn; [`DerModel::nicp`] then runs the same
-//! nonrigid ICP loop as FBT ([`super::icp::Matcher`], same
+//! nonrigid ICP loop as FBT ([`crate::register::Matcher`], same
 //! [`NicpOptions`]), warm-started.
 //!
 //! **Simplifications and changes against the paper** (Der et al. 2006):
@@ -88,11 +88,10 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::icp::Matcher;
 use crate::mesh::Mesh;
 use crate::ops::rotation::{rotation_exp_axis_angle, rotation_log_axis_angle};
 use crate::ops::{cotan_weights, mass_matrix, polar_decomposition, vertex_normals, MassKind};
-use crate::register::{ConstraintRows, NicpOptions};
+use crate::register::{ConstraintRows, Matcher, NicpOptions};
 use crate::solve::{sparse_from_triplets, SymbolicCholesky};
 use crate::{Error, Mat3, Point, Result, Vec3};
 

@@ -14,12 +14,13 @@
 //! - [`amberg`]: Amberg, Romdhani & Vetter 2007, "Optimal step nonrigid ICP
 //!   algorithms for surface registration" — per-vertex affine transforms,
 //!   stiffness schedule, landmarks, rejected closest points.
-//! - [`icp`]: the correspondence step both share with FBT's NICP.
+//!
+//! Der and Amberg share the correspondence step of FBT's NICP,
+//! [`crate::register::Matcher`].
 
 pub mod amberg;
 pub mod cage;
 pub mod der;
-pub mod icp;
 pub mod sumner;
 pub mod sumner_correspondence;
 
@@ -28,7 +29,6 @@ pub use cage::{
     build_cage, mean_value_coordinates, CageFit, CageOptions, CageTransfer, CageTransferred,
 };
 pub use der::{DerModel, DerNicpResult, DerOptions, DerProblem, DerSolution, DerState};
-pub use icp::{Matcher, Matches};
 pub use sumner::{
     deformation_gradients, triangle_frame, DeformationTransfer, SumnerTransferOptions,
     TriangleCorrespondence,

@@ -50,10 +50,8 @@
 //! nearest source triangle. The union is a many-to-many list
 //! ([`TriangleCorrespondence`]).
 
-use std::num::NonZero;
 use std::time::Instant;
 
-use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::DMatrix;
 
 use super::sumner::{
@@ -63,6 +61,7 @@ use super::sumner::{
 use crate::mesh::Mesh;
 use crate::ops::closest_point_on_triangle;
 use crate::ops::{face_normals, vertex_faces, vertex_normals};
+use crate::register::PointIndex;
 use crate::solve::{sparse_from_triplets, SparseCholesky};
 use crate::{Error, Mat3, Point, Result, Vec3};
 
@@ -207,19 +206,13 @@ pub fn check_markers(markers: &[(usize, usize)], n_source: usize, n_target: usiz
     Ok(())
 }
 
-fn kd_tree(points: &[Point]) -> Result<ImmutableKdTree<f64, 3>> {
-    let pts: Vec<[f64; 3]> = points.iter().map(|p| [p.x, p.y, p.z]).collect();
-    ImmutableKdTree::<f64, 3>::new_from_slice(&pts)
-        .map_err(|e| Error::numerical(format!("kd-tree construction failed: {e:?}")))
-}
-
 /// Closest-valid-point search on a fixed target.
 struct ClosestValid<'a> {
     target: &'a Mesh,
-    tree: ImmutableKdTree<f64, 3>,
+    tree: PointIndex,
     vf: crate::ops::adjacency::Csr,
     normals: Vec<Vec3>,
-    k: NonZero<usize>,
+    k: usize,
     cos_max: f64,
 }
 
@@ -227,25 +220,21 @@ impl<'a> ClosestValid<'a> {
     fn new(target: &'a Mesh, neighbours: usize, cos_max: f64) -> Result<Self> {
         Ok(ClosestValid {
             target,
-            tree: kd_tree(target.vertices())?,
+            tree: PointIndex::new(target.vertices())?,
             vf: vertex_faces(target),
             normals: face_normals(target),
-            k: NonZero::new(neighbours.max(1)).unwrap_or(NonZero::<usize>::MIN),
+            k: neighbours,
             cos_max,
         })
     }
 
     fn query(&self, p: &Point, n: &Vec3) -> Option<Point> {
-        let hits = self
-            .tree
-            .query(&[p.x, p.y, p.z])
-            .nearest_n::<SquaredEuclidean<f64>>(self.k)
-            .execute();
+        let hits = self.tree.nearest_n(p, self.k);
         let tv = self.target.vertices();
         let tf = self.target.faces();
         let mut best: Option<(f64, Point)> = None;
         for h in hits {
-            for &f in self.vf.row(h.item as usize) {
+            for &f in self.vf.row(h.index) {
                 let nf = &self.normals[f];
                 if nf.norm_squared() == 0.0 || nf.dot(n) <= self.cos_max {
                     continue;
@@ -525,23 +514,19 @@ fn one_way(
 ) -> Result<Vec<(usize, usize)>> {
     let (ca, cb) = (centroids(a), centroids(b));
     let (na, nb) = (face_normals(a), face_normals(b));
-    let tree = kd_tree(&cb)?;
-    let k = NonZero::new(neighbours.max(1)).unwrap_or(NonZero::<usize>::MIN);
+    let tree = PointIndex::new(&cb)?;
     let d2max = max_distance * max_distance;
     let mut out = Vec::new();
     for (i, p) in ca.iter().enumerate() {
         if na[i].norm_squared() == 0.0 {
             continue;
         }
-        let hits = tree
-            .query(&[p.x, p.y, p.z])
-            .nearest_n::<SquaredEuclidean<f64>>(k)
-            .execute();
+        let hits = tree.nearest_n(p, neighbours);
         if let Some(h) = hits.iter().find(|h| {
-            let j = h.item as usize;
-            h.distance <= d2max && nb[j].norm_squared() > 0.0 && nb[j].dot(&na[i]) > cos_max
+            let j = h.index;
+            h.distance_squared <= d2max && nb[j].norm_squared() > 0.0 && nb[j].dot(&na[i]) > cos_max
         }) {
-            out.push((i, h.item as usize));
+            out.push((i, h.index));
         }
     }
     Ok(out)

@@ -39,7 +39,7 @@
 
 use std::time::Instant;
 
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::Vector3;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -49,8 +49,7 @@ use super::cases::Case;
 use super::config::{fnv1a, MetricsSpec};
 use super::dataset::Collection;
 use super::store::{num, secs, CaseResult, Curve, RenderOut};
-use crate::baselines::{amberg_nicp, AmbergOptions, DerModel, DerOptions};
-use crate::data::partial::{feature_points, make_partial, PartialOptions};
+use crate::data::partial::feature_points;
 use crate::eval::{
     arap_energy, cumulative_curve, curve_grid, error_stats, geodesic_error_curve, vertex_errors,
     ErrorScale,
@@ -58,10 +57,10 @@ use crate::eval::{
 use crate::mesh::io::write_ply;
 use crate::mesh::set::adopt_consistent_faces;
 use crate::mesh::Mesh;
+use crate::methods::completion::{CompletionProblem, CompletionSolver, FbtOptions, FeatureOptions};
 use crate::register::{
-    apply_rows, best_permutation, build, circle_radii, feature_circle_constraints,
-    feature_row_groups, interpolate, metrics, nicp, vertex_rows, DictionaryExamples, FbtConfig,
-    FbtParams, IterOptions, NicpOptions, ScaleMode, Schedule, StageConfig,
+    apply_rows, best_permutation, build, feature_row_groups, interpolate, metrics, vertex_rows,
+    DictionaryExamples, IterOptions, Schedule,
 };
 use crate::skin::dictionary::{Dictionary, SkinningWeights};
 use crate::skin::lbo::lbo_basis;
@@ -199,7 +198,43 @@ pub struct FbtSpec {
 
 impl FbtSpec {
     pub fn q(&self) -> usize {
-        self.q.unwrap_or(4)
+        self.resolve().q
+    }
+
+    /// The typed options: every unset field takes its default from
+    /// [`FbtOptions::default`] (the task-independent defaults; the full
+    /// target tasks' circle radius is `full_target_radius`).
+    pub fn resolve(&self) -> FbtOptions {
+        let d = FbtOptions::default();
+        FbtOptions {
+            q: self.q.unwrap_or(d.q),
+            m: self.m.unwrap_or(d.m),
+            segments: self.segments.unwrap_or(d.segments),
+            rig_poses: self.rig_poses.unwrap_or(d.rig_poses),
+            clusters: self.clusters.unwrap_or(d.clusters),
+            scale: self.scale.unwrap_or(d.scale),
+            alpha: self.alpha.or(d.alpha),
+            dictionary_examples: match self.dictionary.unwrap_or_default() {
+                DictionarySpec::Lbo | DictionarySpec::Skeleton => d.dictionary_examples,
+                DictionarySpec::OneExample => DictionaryExamples::First,
+            },
+            arap_examples: match self.compare.unwrap_or_default() {
+                CompareSpec::All => d.arap_examples,
+                CompareSpec::First => DictionaryExamples::First,
+            },
+            features: FeatureOptions {
+                features: self.features.unwrap_or(d.features.features),
+                circles: self.circles.unwrap_or(d.features.circles),
+                radius: self.radius.unwrap_or(d.features.radius),
+            },
+            full_target_radius: self.radius.unwrap_or(d.full_target_radius),
+            vertices: self.vertices.unwrap_or(d.vertices),
+            nicp: self.nicp.unwrap_or(d.nicp),
+            nicp_iterations: self.nicp_iterations.unwrap_or(d.nicp_iterations),
+            group: self.group.unwrap_or(d.group),
+            repeats: self.repeats.unwrap_or(d.repeats),
+            queries: self.queries.unwrap_or(d.queries),
+        }
     }
 
     /// Checks the options; errors are `(key, message)` relative to the
@@ -241,7 +276,7 @@ impl FbtSpec {
             if !(1..=6).contains(&g) {
                 return e("group", "expected 1..=6 (720 assignments at most)");
             }
-            if g > self.features.unwrap_or(8) {
+            if g > self.resolve().features.features {
                 return e("group", "expected at most `features` features");
             }
         }
@@ -260,7 +295,7 @@ impl FbtSpec {
         }
         match self.solver.unwrap_or_default() {
             SolverSpec::Fbt => {}
-            other => {
+            other @ (SolverSpec::Der | SolverSpec::Amberg) => {
                 if self.task != FbtTask::Completion {
                     return e(
                         "solver",
@@ -303,53 +338,6 @@ impl FbtSpec {
             );
         }
         Ok(())
-    }
-
-    fn params(&self) -> FbtParams {
-        let mut p = FbtParams::default();
-        if let Some(a) = self.alpha {
-            p.scale = ScaleMode::Fixed(a);
-        }
-        p
-    }
-
-    /// The pipeline configuration of the solving tasks.
-    fn config(&self, seed: u64) -> FbtConfig {
-        let mut c = FbtConfig {
-            seed,
-            ..FbtConfig::default()
-        };
-        if let Some(m) = self.m {
-            c.main.weights = crate::register::WeightChoice::Lbo { m };
-        }
-        if let Some(r) = self.clusters {
-            c.clusters = r;
-        }
-        if self.dictionary == Some(DictionarySpec::OneExample) {
-            // Every stage from the reference only, with the atom count of
-            // the example-based stage: (1 + 3q)·m = 4·m′.
-            let q = self.q() as f64;
-            let one = |s: &StageConfig| -> StageConfig {
-                let m = match s.weights {
-                    crate::register::WeightChoice::Lbo { m } => m,
-                    _ => 10,
-                };
-                StageConfig {
-                    weights: crate::register::WeightChoice::Lbo {
-                        m: (((1.0 + 3.0 * q) * m as f64) / 4.0).round() as usize,
-                    },
-                    examples: DictionaryExamples::First,
-                    reduce: s.reduce,
-                }
-            };
-            c.init = c.init.as_ref().map(one);
-            c.main = one(&c.main);
-            c.rich = c.rich.as_ref().map(one);
-        }
-        if self.compare == Some(CompareSpec::First) {
-            c.arap_examples = DictionaryExamples::First;
-        }
-        c
     }
 }
 
@@ -445,33 +433,33 @@ pub fn run(
     render: Option<(&RenderOut, &str)>,
     out: &mut CaseResult,
 ) -> Result<()> {
-    let q = spec.q();
+    let o = spec.resolve();
+    let q = o.q;
     let fc = load_case(col, case, q, seed)?;
     out.set("q", q.to_string());
     out.set("fbt_task", task_name(spec.task));
     out.set("examples", fc.example_ids.join(";"));
     out.set("n_vertices", fc.target.n_vertices().to_string());
     out.set("n_faces", fc.target.n_faces().to_string());
-    let m = spec.m.unwrap_or(10);
+    let m = o.m;
     out.set(
         "dictionary",
         match spec.dictionary.unwrap_or_default() {
             DictionarySpec::Lbo => format!("LBO m = {m}"),
-            DictionarySpec::Skeleton => {
-                format!("skeleton, {} segments", spec.segments.unwrap_or(12))
-            }
+            DictionarySpec::Skeleton => format!("skeleton, {} segments", o.segments),
             DictionarySpec::OneExample => format!("one example, size of LBO m = {m}"),
         },
     );
     let render_dir = render.map(|(r, name)| r.dir.join(name));
     let pose = case.poses[0].clone();
     match spec.task {
-        FbtTask::Projection => projection(&fc, spec, seed, out),
-        FbtTask::Timing => timing(&fc, spec, seed, out),
-        FbtTask::Scale => scale(&fc, spec, seed, out, render_dir.as_deref(), &pose),
+        FbtTask::Projection => projection(&fc, spec, &o, seed, out),
+        FbtTask::Timing => timing(&fc, &o, seed, out),
+        FbtTask::Scale => scale(&fc, &o, seed, out, render_dir.as_deref(), &pose),
         FbtTask::Completion => completion(
             &fc,
-            spec,
+            &o,
+            spec.solver.unwrap_or_default(),
             seed,
             case,
             metrics_spec,
@@ -479,15 +467,9 @@ pub fn run(
             render_dir.as_deref(),
             &pose,
         ),
-        FbtTask::Permutation => permutation(&fc, spec, seed, out),
-        FbtTask::Interpolation => interpolation(&fc, spec, seed, out, render_dir.as_deref(), &pose),
+        FbtTask::Permutation => permutation(&fc, &o, seed, out),
+        FbtTask::Interpolation => interpolation(&fc, &o, seed, out, render_dir.as_deref(), &pose),
     }
-}
-
-fn template_area(m: &Mesh) -> f64 {
-    crate::ops::mass_matrix(m, crate::ops::MassKind::Voronoi)
-        .iter()
-        .sum()
 }
 
 fn set_distortion(out: &mut CaseResult, d: &[f64], suffix: &str) {
@@ -503,10 +485,16 @@ fn set_distortion(out: &mut CaseResult, d: &[f64], suffix: &str) {
 }
 
 /// Table 2: the closest shape in the dictionary's span.
-fn projection(fc: &FbtCase, spec: &FbtSpec, seed: u64, out: &mut CaseResult) -> Result<()> {
+fn projection(
+    fc: &FbtCase,
+    spec: &FbtSpec,
+    o: &FbtOptions,
+    seed: u64,
+    out: &mut CaseResult,
+) -> Result<()> {
     let t = Instant::now();
     let reference = &fc.examples[0];
-    let m = spec.m.unwrap_or(10);
+    let m = o.m;
     let dict = match spec.dictionary.unwrap_or_default() {
         DictionarySpec::Lbo => {
             let basis = lbo_basis(reference, m, &EigenOptions::default())?;
@@ -518,7 +506,7 @@ fn projection(fc: &FbtCase, spec: &FbtSpec, seed: u64, out: &mut CaseResult) -> 
             Dictionary::from_meshes(&fc.examples[..1], &SkinningWeights::lbo(&basis))?
         }
         DictionarySpec::Skeleton => {
-            let k = spec.rig_poses.unwrap_or(4);
+            let k = o.rig_poses;
             if fc.examples.len() - 1 + fc.rest.len() < k {
                 return Err(Error::invalid(format!(
                     "skeleton weights need {k} rig shapes besides the reference and the target"
@@ -531,13 +519,7 @@ fn projection(fc: &FbtCase, spec: &FbtSpec, seed: u64, out: &mut CaseResult) -> 
                 .take(k)
                 .cloned()
                 .collect();
-            let w = SkinningWeights::segments(
-                reference,
-                &rig,
-                spec.segments.unwrap_or(12),
-                0.05,
-                seed,
-            )?;
+            let w = SkinningWeights::segments(reference, &rig, o.segments, 0.05, seed)?;
             Dictionary::from_meshes(&fc.examples, &w)?
         }
     };
@@ -551,35 +533,20 @@ fn projection(fc: &FbtCase, spec: &FbtSpec, seed: u64, out: &mut CaseResult) -> 
     Ok(())
 }
 
-/// Feature-circle constraints between the reference (vertex `f`) and the
-/// target (vertex `g`).
-fn circles(
-    fc: &FbtCase,
-    spec: &FbtSpec,
-    target: &Mesh,
-    pairs: &[(usize, usize)],
-    area: f64,
-    default_radius: f64,
-) -> Result<(crate::register::ConstraintRows, DMatrix<f64>)> {
-    let radii = circle_radii(
-        spec.circles.unwrap_or(10),
-        spec.radius.unwrap_or(default_radius) * area.sqrt(),
-    );
-    feature_circle_constraints(&fc.examples[0], target, pairs, &radii)
-}
-
 /// Table 1 timings (medians of `repeats`).
-fn timing(fc: &FbtCase, spec: &FbtSpec, seed: u64, out: &mut CaseResult) -> Result<()> {
-    let reps = spec.repeats.unwrap_or(5);
-    let params = spec.params();
+fn timing(fc: &FbtCase, o: &FbtOptions, seed: u64, out: &mut CaseResult) -> Result<()> {
+    let reps = o.repeats;
+    let params = o.params();
     let schedule = Schedule::default();
     let t = Instant::now();
-    let setup = build(&fc.examples, &spec.config(seed))?;
+    let setup = build(&fc.examples, &o.config(seed))?;
     let t_build = t.elapsed().as_secs_f64();
     let area = setup.graph.area();
-    let feats = feature_points(&fc.target, spec.features.unwrap_or(8), seed)?;
+    let feats = feature_points(&fc.target, o.features.features, seed)?;
     let pairs: Vec<(usize, usize)> = feats.iter().map(|&f| (f, f)).collect();
-    let (rows, y) = circles(fc, spec, &fc.target, &pairs, area, 0.15)?;
+    let (rows, y) = o
+        .features
+        .constraints(&fc.examples[0], &fc.target, &pairs, area)?;
     let t = Instant::now();
     let sys = setup.pipeline.systems(&rows, &params)?;
     let t_fact = t.elapsed().as_secs_f64();
@@ -633,19 +600,19 @@ fn scaled(points: &[Point], s: f64) -> Vec<Point> {
 /// Figs. 4–5: vertex-position constraints on a scaled target.
 fn scale(
     fc: &FbtCase,
-    spec: &FbtSpec,
+    o: &FbtOptions,
     seed: u64,
     out: &mut CaseResult,
     render: Option<&std::path::Path>,
     pose: &str,
 ) -> Result<()> {
-    let s = spec.scale.unwrap_or(1.5);
-    let params = spec.params();
+    let s = o.scale;
+    let params = o.params();
     let t = Instant::now();
-    let setup = build(&fc.examples, &spec.config(seed))?;
+    let setup = build(&fc.examples, &o.config(seed))?;
     out.set("seconds_precompute", secs(t.elapsed().as_secs_f64()));
     let target = fc.target.with_vertices(scaled(fc.target.vertices(), s))?;
-    let verts = feature_points(&fc.examples[0], spec.vertices.unwrap_or(20), seed)?;
+    let verts = feature_points(&fc.examples[0], o.vertices, seed)?;
     let rows = vertex_rows(&verts);
     let y = apply_rows(&rows, target.vertices())?;
     let t = Instant::now();
@@ -693,11 +660,13 @@ fn scale(
 /// Figs. 6–8: partial target, feature registration, NICP — with FBT's
 /// blended transformations, Der et al.'s reduced model, or Amberg et al.'s
 /// optimal-step NICP as the deformation model (`solver`); the partial
-/// target, the features and the measurements are the same for all three.
+/// target, the features and the measurements are the same for all three
+/// (one [`CompletionProblem`] per case).
 #[allow(clippy::too_many_arguments)]
 fn completion(
     fc: &FbtCase,
-    spec: &FbtSpec,
+    o: &FbtOptions,
+    solver: SolverSpec,
     seed: u64,
     case: &Case,
     metrics_spec: &MetricsSpec,
@@ -705,128 +674,41 @@ fn completion(
     render: Option<&std::path::Path>,
     pose: &str,
 ) -> Result<()> {
-    let params = spec.params();
-    let solver = spec.solver.unwrap_or_default();
-    let reference = &fc.examples[0];
-    // √area unit of every measure: the reference's (Voronoi) area, as FBT's
-    // `ArapGraph::area`.
-    let area = template_area(reference);
     // Partial target: depends on the case only (same for every method).
-    let pseed = fnv1a(case.id.as_bytes());
-    let feats = feature_points(&fc.target, spec.features.unwrap_or(8), pseed)?;
-    let partial = make_partial(
+    let problem = CompletionProblem::new(
+        &fc.examples,
         &fc.target,
-        &feats,
-        &PartialOptions {
-            seed: pseed,
-            ..Default::default()
-        },
+        &o.features,
+        fnv1a(case.id.as_bytes()),
     )?;
-    out.set("partial_area", num(partial.area_fraction));
-    let pairs: Vec<(usize, usize)> = feats
-        .iter()
-        .zip(&partial.features)
-        .map(|(&f, &g)| (f, g))
-        .collect();
-    let (rows, y) = circles(fc, spec, &partial.mesh, &pairs, area, 0.15)?;
-    out.set("n_constraints", rows.len().to_string());
-    let icp = NicpOptions {
-        iterations: spec.nicp_iterations.unwrap_or(10),
-        seed,
-        ..NicpOptions::default()
+    out.set("partial_area", num(problem.partial().area_fraction));
+    out.set("n_constraints", problem.rows().len().to_string());
+    let solver = match solver {
+        SolverSpec::Fbt => CompletionSolver::fbt(o, seed),
+        SolverSpec::Der => CompletionSolver::der(o, seed),
+        SolverSpec::Amberg => CompletionSolver::amberg(o, seed),
     };
-    let positions = match solver {
-        SolverSpec::Fbt => {
-            let t = Instant::now();
-            let setup = build(&fc.examples, &spec.config(seed))?;
-            out.set("seconds_precompute", secs(t.elapsed().as_secs_f64()));
-            out.set("dict_size", setup.sizes.1.to_string());
-            out.set("n_clusters", setup.pipeline.main().n_clusters().to_string());
-            let t = Instant::now();
-            let sys = setup.pipeline.systems(&rows, &params)?;
-            let reg = sys.solve(&y, &Schedule::default())?;
-            out.set("seconds_solve", secs(t.elapsed().as_secs_f64()));
-            out.set("alpha", num(reg.alpha));
-            let before = metrics::relative_distortion(&reg.positions, fc.target.vertices(), area)?;
-            set_distortion(out, &before, "_init");
-            if spec.nicp.unwrap_or(true) {
-                let t = Instant::now();
-                let res = nicp(
-                    setup.pipeline.last(),
-                    &params,
-                    (&rows, &y),
-                    &partial.mesh,
-                    &reg.t,
-                    reg.alpha,
-                    &icp,
-                )?;
-                out.set("seconds_nicp", secs(t.elapsed().as_secs_f64()));
-                out.set("alpha", num(res.alpha));
-                res.positions
-            } else {
-                reg.positions.clone()
-            }
+    let r = solver.solve(&problem)?;
+    let optional = [
+        ("seconds_precompute", r.seconds_precompute.map(secs)),
+        ("seconds_solve", r.seconds_solve.map(secs)),
+        ("seconds_nicp", r.seconds_nicp.map(secs)),
+        ("alpha", r.alpha.map(num)),
+        ("dict_size", r.dict_size.map(|b| b.to_string())),
+        ("n_clusters", r.n_clusters.map(|c| c.to_string())),
+        ("iterations", r.iterations.map(|i| i.to_string())),
+        ("dictionary", r.dictionary.clone()),
+    ];
+    for (column, value) in optional {
+        if let Some(v) = value {
+            out.set(column, v);
         }
-        SolverSpec::Der => {
-            // The same rotation clusters as FBT: those of the FBT setup of
-            // this case (same configuration and seed).
-            // (Their construction is not timed: it is FBT's.)
-            let setup = build(&fc.examples, &spec.config(seed))?;
-            let t = Instant::now();
-            let model = DerModel::new(&fc.examples, &setup.clusters)?;
-            out.set("seconds_precompute", secs(t.elapsed().as_secs_f64()));
-            out.set("n_clusters", model.n_clusters().to_string());
-            out.set(
-                "dictionary",
-                format!(
-                    "Der et al. (weights of {} examples, {} clusters)",
-                    model.n_examples(),
-                    model.n_clusters()
-                ),
-            );
-            let opts = DerOptions {
-                beta: params.beta_lc,
-                ..DerOptions::default()
-            };
-            let t = Instant::now();
-            let prob = model.problem(&rows, &y, opts.beta)?;
-            let reg = model.register(&prob, &opts)?;
-            out.set("seconds_solve", secs(t.elapsed().as_secs_f64()));
-            out.set("iterations", reg.iterations.to_string());
-            let before = metrics::relative_distortion(&reg.positions, fc.target.vertices(), area)?;
-            set_distortion(out, &before, "_init");
-            if spec.nicp.unwrap_or(true) {
-                let t = Instant::now();
-                let res = model.nicp((&rows, &y), &partial.mesh, &reg.state, &icp, &opts)?;
-                out.set("seconds_nicp", secs(t.elapsed().as_secs_f64()));
-                res.positions
-            } else {
-                reg.positions
-            }
-        }
-        SolverSpec::Amberg => {
-            let opts = AmbergOptions {
-                icp: NicpOptions { samples: 0, ..icp },
-                ..AmbergOptions::default()
-            };
-            out.set(
-                "dictionary",
-                format!(
-                    "Amberg NICP (reference only, {} stiffness steps)",
-                    opts.stiffness.len()
-                ),
-            );
-            let t = Instant::now();
-            let res = amberg_nicp(reference, &partial.mesh, (&rows, &y), &opts)?;
-            out.set("seconds_nicp", secs(t.elapsed().as_secs_f64()));
-            out.set(
-                "iterations",
-                res.steps.iter().map(|s| s.1).sum::<usize>().to_string(),
-            );
-            res.positions
-        }
-    };
-    let d = metrics::relative_distortion(&positions, fc.target.vertices(), area)?;
+    }
+    if let Some(init) = &r.init_positions {
+        set_distortion(out, &problem.distortion(init)?, "_init");
+    }
+    let positions = &r.positions;
+    let d = problem.distortion(positions)?;
     set_distortion(out, &d, "");
     // Curves. Distortion: share of template points within a relative
     // distance (√area units) of their true position; also in unit-sphere
@@ -838,7 +720,7 @@ fn completion(
         &cumulative_curve(&d, &grid),
     ));
     let sc = ErrorScale::of_reference(&fc.target)?;
-    let raw = vertex_errors(&positions, fc.target.vertices())?;
+    let raw = vertex_errors(positions, fc.target.vertices())?;
     let st = error_stats(&raw)?;
     out.set("err_mean_unit", num(st.mean * sc.unit_sphere));
     out.set("err_mean_area", num(st.mean * sc.sqrt_area));
@@ -853,17 +735,7 @@ fn completion(
     // the nearest vertex of the registered template; the error is the
     // geodesic distance on the full target between that vertex and the
     // point's true vertex, over √area.
-    let nq = spec.queries.unwrap_or(300).min(partial.mesh.n_vertices());
-    let mut idx: Vec<usize> = (0..partial.mesh.n_vertices()).collect();
-    idx.shuffle(&mut ChaCha8Rng::seed_from_u64(pseed));
-    idx.truncate(nq);
-    idx.sort_unstable();
-    let queries: Vec<Point> = idx.iter().map(|&i| partial.mesh.vertices()[i]).collect();
-    let predicted: Vec<usize> = metrics::nearest_points(&queries, &positions)?
-        .into_iter()
-        .map(|(v, _)| v)
-        .collect();
-    let truth: Vec<usize> = idx.iter().map(|&i| partial.vertex_map[i]).collect();
+    let (predicted, truth) = problem.correspondences(positions, o.queries)?;
     let (ce, curve) = geodesic_error_curve(&fc.target, &predicted, &truth, &grid)?;
     out.set("corr_error_mean", num(metrics::mean(&ce)));
     out.curves
@@ -872,24 +744,27 @@ fn completion(
         save(
             dir,
             &format!("result_{pose}.ply"),
-            &reference.with_vertices(positions)?,
+            &problem.reference().with_vertices(r.positions.clone())?,
         )?;
-        save(dir, &format!("partial_{pose}.ply"), &partial.mesh)?;
+        save(dir, &format!("partial_{pose}.ply"), &problem.partial().mesh)?;
     }
     Ok(())
 }
 
 /// Fig. 3: automatic correspondence within an ambiguous feature group.
-fn permutation(fc: &FbtCase, spec: &FbtSpec, seed: u64, out: &mut CaseResult) -> Result<()> {
-    let params = spec.params();
-    let setup = build(&fc.examples, &spec.config(seed))?;
+fn permutation(fc: &FbtCase, o: &FbtOptions, seed: u64, out: &mut CaseResult) -> Result<()> {
+    let params = o.params();
+    let setup = build(&fc.examples, &o.config(seed))?;
     let area = setup.graph.area();
-    let k = spec.group.unwrap_or(4);
-    let n_circles = spec.circles.unwrap_or(10);
-    let feats = feature_points(&fc.examples[0], spec.features.unwrap_or(8), seed)?;
+    let k = o.group;
+    let circles = FeatureOptions {
+        radius: o.full_target_radius,
+        ..o.features
+    };
+    let feats = feature_points(&fc.examples[0], circles.features, seed)?;
     let pairs: Vec<(usize, usize)> = feats.iter().map(|&f| (f, f)).collect();
-    let (rows, y) = circles(fc, spec, &fc.target, &pairs, area, 0.1)?;
-    let group = feature_row_groups(k, n_circles);
+    let (rows, y) = circles.constraints(&fc.examples[0], &fc.target, &pairs, area)?;
+    let group = feature_row_groups(k, circles.circles);
     let t = Instant::now();
     let sys = setup.pipeline.systems(&rows, &params)?;
     let search = best_permutation(&sys, &y, &group, &Schedule::default())?;
@@ -917,7 +792,7 @@ fn permutation(fc: &FbtCase, spec: &FbtSpec, seed: u64, out: &mut CaseResult) ->
 /// Fig. 3: interpolation between two registrations.
 fn interpolation(
     fc: &FbtCase,
-    spec: &FbtSpec,
+    o: &FbtOptions,
     seed: u64,
     out: &mut CaseResult,
     render: Option<&std::path::Path>,
@@ -930,13 +805,17 @@ fn interpolation(
         "examples",
         format!("{};to {}", fc.example_ids.join(";"), fc.rest_ids[0]),
     );
-    let params = spec.params();
-    let setup = build(&fc.examples, &spec.config(seed))?;
+    let params = o.params();
+    let setup = build(&fc.examples, &o.config(seed))?;
     let area = setup.graph.area();
-    let feats = feature_points(&fc.examples[0], spec.features.unwrap_or(8), seed)?;
+    let circles = FeatureOptions {
+        radius: o.full_target_radius,
+        ..o.features
+    };
+    let feats = feature_points(&fc.examples[0], circles.features, seed)?;
     let pairs: Vec<(usize, usize)> = feats.iter().map(|&f| (f, f)).collect();
-    let (rows, ya) = circles(fc, spec, &fc.target, &pairs, area, 0.1)?;
-    let (_, yb) = circles(fc, spec, other, &pairs, area, 0.1)?;
+    let (rows, ya) = circles.constraints(&fc.examples[0], &fc.target, &pairs, area)?;
+    let (_, yb) = circles.constraints(&fc.examples[0], other, &pairs, area)?;
     let sys = setup.pipeline.systems(&rows, &params)?;
     let a = sys.solve(&ya, &Schedule::default())?;
     let b = sys.solve(&yb, &Schedule::default())?;

@@ -1,2 +1,558 @@
 //! Shape completion and partial registration (FBT Figs. 6–8): one
 //! `CompletionProblem`, solved by FBT, Der et al. or Amberg et al.
+//!
+//! A [`CompletionProblem`] is built once from the examples (reference
+//! first), the full target and the feature options: feature points on the
+//! target, the partial target that keeps them ([`make_partial`]), the
+//! geodesic-circle constraints between the reference and the partial target
+//! (`H` rows and `Y`) and the √area unit of every measure. Every
+//! [`CompletionSolver`] solves that same problem and returns a
+//! [`CompletionOutcome`]: the completed shape and what was measured on the
+//! way, as plain values.
+//!
+//! [`FbtOptions`] holds the options of the FBT experiments (paper 001,
+//! Sec. 5) and their defaults, once.
+
+use std::time::Instant;
+
+use nalgebra::DMatrix;
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use crate::baselines::{amberg_nicp, AmbergOptions, DerModel, DerOptions};
+use crate::data::partial::{feature_points, make_partial, PartialOptions, PartialShape};
+use crate::mesh::Mesh;
+use crate::ops::{mass_matrix, MassKind};
+use crate::register::{
+    build, circle_radii, feature_circle_constraints, metrics, nicp, ConstraintRows,
+    DictionaryExamples, FbtConfig, FbtParams, NicpOptions, ScaleMode, Schedule, StageConfig,
+    WeightChoice,
+};
+use crate::{Error, Point, Result};
+
+/// Feature points and their geodesic circles (FBT Sec. 5).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FeatureOptions {
+    /// Feature points.
+    pub features: usize,
+    /// Geodesic circles per feature.
+    pub circles: usize,
+    /// Largest circle radius relative to √area.
+    pub radius: f64,
+}
+
+impl Default for FeatureOptions {
+    fn default() -> Self {
+        FeatureOptions {
+            features: 8,
+            circles: 10,
+            radius: 0.15,
+        }
+    }
+}
+
+impl FeatureOptions {
+    /// Feature-circle constraints between `reference` (vertex `f`) and
+    /// `target` (vertex `g`) for the pairs `(f, g)`; `area` is the area of
+    /// which √area scales the radii.
+    pub fn constraints(
+        &self,
+        reference: &Mesh,
+        target: &Mesh,
+        pairs: &[(usize, usize)],
+        area: f64,
+    ) -> Result<(ConstraintRows, DMatrix<f64>)> {
+        let radii = circle_radii(self.circles, self.radius * area.sqrt());
+        feature_circle_constraints(reference, target, pairs, &radii)
+    }
+}
+
+/// The options of the FBT experiments, every default in one place (the
+/// harness's `[methods.fbt]` table resolves to this).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FbtOptions {
+    /// Number of example shapes.
+    pub q: usize,
+    /// LBO eigenfunctions of the main stage (and of the `projection`
+    /// dictionary).
+    pub m: usize,
+    /// Segments of the skeleton weights.
+    pub segments: usize,
+    /// Shapes besides the reference the skeleton weights are learnt from.
+    pub rig_poses: usize,
+    /// Rotation clusters r.
+    pub clusters: usize,
+    /// Scale applied to the target (`scale` task).
+    pub scale: f64,
+    /// Fixed global scale α (Fig. 8 C); `None`: α is optimised.
+    pub alpha: Option<f64>,
+    /// Examples of the dictionary atoms: all q (the paper) or the reference
+    /// only with the atom count of the example-based dictionary (Fig. 8 A).
+    pub dictionary_examples: DictionaryExamples,
+    /// Examples of the ARAP energy: all q (the paper) or the reference only
+    /// (Fig. 8 B).
+    pub arap_examples: DictionaryExamples,
+    /// Feature points and circles of the `completion` and `timing` tasks.
+    pub features: FeatureOptions,
+    /// Largest circle radius (relative to √area) of the tasks whose target
+    /// is a full shape (`permutation`, `interpolation`).
+    pub full_target_radius: f64,
+    /// Vertex-position constraints of the `scale` task.
+    pub vertices: usize,
+    /// Run NICP after the feature registration (`completion`).
+    pub nicp: bool,
+    /// NICP iterations.
+    pub nicp_iterations: usize,
+    /// Size of the ambiguous feature group (`permutation`).
+    pub group: usize,
+    /// Timing repetitions (`timing`).
+    pub repeats: usize,
+    /// Correspondence queries per case (Kim et al. curve).
+    pub queries: usize,
+}
+
+impl Default for FbtOptions {
+    fn default() -> Self {
+        let config = FbtConfig::default();
+        FbtOptions {
+            q: 4,
+            m: 10,
+            segments: 12,
+            rig_poses: 4,
+            clusters: config.clusters,
+            scale: 1.5,
+            alpha: None,
+            dictionary_examples: DictionaryExamples::All,
+            arap_examples: DictionaryExamples::All,
+            features: FeatureOptions::default(),
+            full_target_radius: 0.1,
+            vertices: 20,
+            nicp: true,
+            nicp_iterations: 10,
+            group: 4,
+            repeats: 5,
+            queries: 300,
+        }
+    }
+}
+
+impl FbtOptions {
+    /// The energy parameters (α fixed when `alpha` is set).
+    pub fn params(&self) -> FbtParams {
+        let mut p = FbtParams::default();
+        if let Some(a) = self.alpha {
+            p.scale = ScaleMode::Fixed(a);
+        }
+        p
+    }
+
+    /// The pipeline configuration of the solving tasks.
+    pub fn config(&self, seed: u64) -> FbtConfig {
+        let mut c = FbtConfig {
+            seed,
+            ..FbtConfig::default()
+        };
+        c.main.weights = WeightChoice::Lbo { m: self.m };
+        c.clusters = self.clusters;
+        match self.dictionary_examples {
+            DictionaryExamples::All => {}
+            DictionaryExamples::First => {
+                // Every stage from the reference only, with the atom count
+                // of the example-based stage: (1 + 3q)·m = 4·m′.
+                let q = self.q as f64;
+                let one = |s: &StageConfig| -> StageConfig {
+                    let m = match s.weights {
+                        WeightChoice::Lbo { m } => m,
+                        // Not LBO stages of the default configuration.
+                        WeightChoice::Segments { .. } | WeightChoice::Biharmonic { .. } => 10,
+                    };
+                    StageConfig {
+                        weights: WeightChoice::Lbo {
+                            m: (((1.0 + 3.0 * q) * m as f64) / 4.0).round() as usize,
+                        },
+                        examples: DictionaryExamples::First,
+                        reduce: s.reduce,
+                    }
+                };
+                c.init = c.init.as_ref().map(one);
+                c.main = one(&c.main);
+                c.rich = c.rich.as_ref().map(one);
+            }
+        }
+        c.arap_examples = self.arap_examples;
+        c
+    }
+
+    /// NICP options (`nicp_iterations`, sample placement seeded by `seed`).
+    pub fn nicp_options(&self, seed: u64) -> NicpOptions {
+        NicpOptions {
+            iterations: self.nicp_iterations,
+            seed,
+            ..NicpOptions::default()
+        }
+    }
+}
+
+/// One shape completion problem: a partial target with feature points, the
+/// feature-circle constraints to the reference example, and the truth.
+#[derive(Clone, Debug)]
+pub struct CompletionProblem {
+    examples: Vec<Mesh>,
+    target: Mesh,
+    features: Vec<usize>,
+    partial: PartialShape,
+    rows: ConstraintRows,
+    y: DMatrix<f64>,
+    area: f64,
+    seed: u64,
+}
+
+impl CompletionProblem {
+    /// The completion of the full `target` (its vertices in correspondence
+    /// with the examples': truth vertex `i` ↔ vertex `i`) from `examples`
+    /// (reference first): `features.features` farthest-point feature points
+    /// of the target (seed `seed`), a partial target keeping them
+    /// ([`make_partial`] with default options and seed `seed`), and
+    /// `features.circles` geodesic circles per feature up to
+    /// `features.radius · √area`, where the area is the reference's
+    /// (Voronoi) area — the unit of every measure.
+    pub fn new(
+        examples: &[Mesh],
+        target: &Mesh,
+        features: &FeatureOptions,
+        seed: u64,
+    ) -> Result<Self> {
+        let reference = examples
+            .first()
+            .ok_or_else(|| Error::invalid("a completion problem needs an example"))?;
+        // √area unit of every measure: the reference's (Voronoi) area, as
+        // FBT's `ArapGraph::area`.
+        let area: f64 = mass_matrix(reference, MassKind::Voronoi).iter().sum();
+        let feats = feature_points(target, features.features, seed)?;
+        let partial = make_partial(
+            target,
+            &feats,
+            &PartialOptions {
+                seed,
+                ..Default::default()
+            },
+        )?;
+        let pairs: Vec<(usize, usize)> = feats
+            .iter()
+            .zip(&partial.features)
+            .map(|(&f, &g)| (f, g))
+            .collect();
+        let (rows, y) = features.constraints(reference, &partial.mesh, &pairs, area)?;
+        Ok(CompletionProblem {
+            examples: examples.to_vec(),
+            target: target.clone(),
+            features: feats,
+            partial,
+            rows,
+            y,
+            area,
+            seed,
+        })
+    }
+
+    /// The examples (reference first).
+    pub fn examples(&self) -> &[Mesh] {
+        &self.examples
+    }
+
+    /// The reference example (the template that is deformed).
+    pub fn reference(&self) -> &Mesh {
+        &self.examples[0]
+    }
+
+    /// The full target (the truth).
+    pub fn target(&self) -> &Mesh {
+        &self.target
+    }
+
+    /// The feature points (vertices of the full target).
+    pub fn features(&self) -> &[usize] {
+        &self.features
+    }
+
+    /// The partial target and its map to the full one.
+    pub fn partial(&self) -> &PartialShape {
+        &self.partial
+    }
+
+    /// The constraint rows `H` (reference vertices).
+    pub fn rows(&self) -> &ConstraintRows {
+        &self.rows
+    }
+
+    /// The constraint targets `Y` (h × 3, on the partial target).
+    pub fn y(&self) -> &DMatrix<f64> {
+        &self.y
+    }
+
+    /// `(H rows, Y)`.
+    pub fn constraints(&self) -> (&ConstraintRows, &DMatrix<f64>) {
+        (&self.rows, &self.y)
+    }
+
+    /// The reference's (Voronoi) area; √area is the unit of every measure.
+    pub fn area(&self) -> f64 {
+        self.area
+    }
+
+    /// The seed of the features, the partial target and the queries.
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// Relative distortion `‖p_i − p_true,i‖ / √area` per template vertex.
+    pub fn distortion(&self, positions: &[Point]) -> Result<Vec<f64>> {
+        metrics::relative_distortion(positions, self.target.vertices(), self.area)
+    }
+
+    /// Correspondences (Kim et al.): `queries` partial-target vertices
+    /// (at most all; drawn with the problem's seed, in index order) are
+    /// matched to the nearest vertex of the registered template `positions`.
+    /// Returns `(predicted, truth)` vertices of the full target.
+    pub fn correspondences(
+        &self,
+        positions: &[Point],
+        queries: usize,
+    ) -> Result<(Vec<usize>, Vec<usize>)> {
+        let mesh = &self.partial.mesh;
+        let nq = queries.min(mesh.n_vertices());
+        let mut idx: Vec<usize> = (0..mesh.n_vertices()).collect();
+        idx.shuffle(&mut ChaCha8Rng::seed_from_u64(self.seed));
+        idx.truncate(nq);
+        idx.sort_unstable();
+        let points: Vec<Point> = idx.iter().map(|&i| mesh.vertices()[i]).collect();
+        let predicted: Vec<usize> = metrics::nearest_points(&points, positions)?
+            .into_iter()
+            .map(|(v, _)| v)
+            .collect();
+        let truth: Vec<usize> = idx.iter().map(|&i| self.partial.vertex_map[i]).collect();
+        Ok((predicted, truth))
+    }
+}
+
+/// FBT's completion: feature registration with blended transformations
+/// (the paper's schedule), then FBT's NICP.
+#[derive(Clone, Debug)]
+pub struct FbtCompletion {
+    pub config: FbtConfig,
+    pub params: FbtParams,
+    pub schedule: Schedule,
+    /// NICP after the feature registration (`None`: none).
+    pub nicp: Option<NicpOptions>,
+}
+
+/// Der et al.'s reduced model on the FBT rotation clusters, in the same
+/// procedure (feature registration, then NICP).
+#[derive(Clone, Debug)]
+pub struct DerCompletion {
+    /// The FBT configuration whose rotation clusters Der et al. use.
+    pub config: FbtConfig,
+    pub options: DerOptions,
+    pub nicp: Option<NicpOptions>,
+}
+
+/// The deformation model of a completion (FBT Fig. 7 baselines).
+#[derive(Clone, Debug)]
+pub enum CompletionSolver {
+    /// Fast blended transformations (the paper).
+    Fbt(FbtCompletion),
+    /// Der, Sumner & Popović 2006 ([`crate::baselines::der`]).
+    Der(DerCompletion),
+    /// Amberg et al. 2007 optimal-step nonrigid ICP
+    /// ([`crate::baselines::amberg`]) with the feature circles as landmarks.
+    Amberg(AmbergOptions),
+}
+
+/// What a [`CompletionSolver`] returns: the completed shape and the
+/// quantities measured on the way (`None`: not applicable to the solver).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CompletionOutcome {
+    /// The deformed reference (the completed shape).
+    pub positions: Vec<Point>,
+    /// The feature registration before NICP.
+    pub init_positions: Option<Vec<Point>>,
+    /// Global scale α (after NICP when it ran).
+    pub alpha: Option<f64>,
+    /// Main dictionary size b.
+    pub dict_size: Option<usize>,
+    /// Rotation clusters.
+    pub n_clusters: Option<usize>,
+    /// Solver iterations.
+    pub iterations: Option<usize>,
+    /// A description of the deformation model when it is not FBT's
+    /// dictionary.
+    pub dictionary: Option<String>,
+    /// Precomputation (s).
+    pub seconds_precompute: Option<f64>,
+    /// Feature registration (s).
+    pub seconds_solve: Option<f64>,
+    /// Nonrigid ICP (s).
+    pub seconds_nicp: Option<f64>,
+}
+
+impl CompletionOutcome {
+    fn new(positions: Vec<Point>) -> Self {
+        CompletionOutcome {
+            positions,
+            init_positions: None,
+            alpha: None,
+            dict_size: None,
+            n_clusters: None,
+            iterations: None,
+            dictionary: None,
+            seconds_precompute: None,
+            seconds_solve: None,
+            seconds_nicp: None,
+        }
+    }
+}
+
+impl CompletionSolver {
+    /// FBT with the options' configuration, parameters and NICP (`seed`:
+    /// clustering and NICP samples).
+    pub fn fbt(opts: &FbtOptions, seed: u64) -> Self {
+        CompletionSolver::Fbt(FbtCompletion {
+            config: opts.config(seed),
+            params: opts.params(),
+            schedule: Schedule::default(),
+            nicp: opts.nicp.then(|| opts.nicp_options(seed)),
+        })
+    }
+
+    /// Der et al. on the clusters of [`CompletionSolver::fbt`]'s
+    /// configuration, with FBT's constraint weight β_lc.
+    pub fn der(opts: &FbtOptions, seed: u64) -> Self {
+        CompletionSolver::Der(DerCompletion {
+            config: opts.config(seed),
+            options: DerOptions {
+                beta: opts.params().beta_lc,
+                ..DerOptions::default()
+            },
+            nicp: opts.nicp.then(|| opts.nicp_options(seed)),
+        })
+    }
+
+    /// Amberg et al. matching every template vertex, with the options'
+    /// NICP rules.
+    pub fn amberg(opts: &FbtOptions, seed: u64) -> Self {
+        CompletionSolver::Amberg(AmbergOptions {
+            icp: NicpOptions {
+                samples: 0,
+                ..opts.nicp_options(seed)
+            },
+            ..AmbergOptions::default()
+        })
+    }
+
+    /// Solves `problem`.
+    pub fn solve(&self, problem: &CompletionProblem) -> Result<CompletionOutcome> {
+        let examples = problem.examples();
+        let (rows, y) = (problem.rows(), problem.y());
+        match self {
+            CompletionSolver::Fbt(s) => {
+                let t = Instant::now();
+                let setup = build(examples, &s.config)?;
+                let seconds_precompute = t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                let sys = setup.pipeline.systems(rows, &s.params)?;
+                let reg = sys.solve(y, &s.schedule)?;
+                let seconds_solve = t.elapsed().as_secs_f64();
+                let mut alpha = reg.alpha;
+                let (positions, seconds_nicp) = match &s.nicp {
+                    Some(icp) => {
+                        let t = Instant::now();
+                        let res = nicp(
+                            setup.pipeline.last(),
+                            &s.params,
+                            (rows, y),
+                            &problem.partial().mesh,
+                            &reg.t,
+                            reg.alpha,
+                            icp,
+                        )?;
+                        alpha = res.alpha;
+                        (res.positions, Some(t.elapsed().as_secs_f64()))
+                    }
+                    None => (reg.positions.clone(), None),
+                };
+                Ok(CompletionOutcome {
+                    init_positions: Some(reg.positions),
+                    alpha: Some(alpha),
+                    dict_size: Some(setup.sizes.1),
+                    n_clusters: Some(setup.pipeline.main().n_clusters()),
+                    seconds_precompute: Some(seconds_precompute),
+                    seconds_solve: Some(seconds_solve),
+                    seconds_nicp,
+                    ..CompletionOutcome::new(positions)
+                })
+            }
+            CompletionSolver::Der(s) => {
+                // The same rotation clusters as FBT: those of the FBT setup
+                // of this configuration (not timed: it is FBT's).
+                let setup = build(examples, &s.config)?;
+                let t = Instant::now();
+                let model = DerModel::new(examples, &setup.clusters)?;
+                let seconds_precompute = t.elapsed().as_secs_f64();
+                let dictionary = format!(
+                    "Der et al. (weights of {} examples, {} clusters)",
+                    model.n_examples(),
+                    model.n_clusters()
+                );
+                let t = Instant::now();
+                let prob = model.problem(rows, y, s.options.beta)?;
+                let reg = model.register(&prob, &s.options)?;
+                let seconds_solve = t.elapsed().as_secs_f64();
+                let (positions, seconds_nicp) = match &s.nicp {
+                    Some(icp) => {
+                        let t = Instant::now();
+                        let res = model.nicp(
+                            (rows, y),
+                            &problem.partial().mesh,
+                            &reg.state,
+                            icp,
+                            &s.options,
+                        )?;
+                        (res.positions, Some(t.elapsed().as_secs_f64()))
+                    }
+                    None => (reg.positions.clone(), None),
+                };
+                Ok(CompletionOutcome {
+                    init_positions: Some(reg.positions),
+                    n_clusters: Some(model.n_clusters()),
+                    iterations: Some(reg.iterations),
+                    dictionary: Some(dictionary),
+                    seconds_precompute: Some(seconds_precompute),
+                    seconds_solve: Some(seconds_solve),
+                    seconds_nicp,
+                    ..CompletionOutcome::new(positions)
+                })
+            }
+            CompletionSolver::Amberg(opts) => {
+                let dictionary = format!(
+                    "Amberg NICP (reference only, {} stiffness steps)",
+                    opts.stiffness.len()
+                );
+                let t = Instant::now();
+                let res = amberg_nicp(
+                    problem.reference(),
+                    &problem.partial().mesh,
+                    (rows, y),
+                    opts,
+                )?;
+                let seconds_nicp = t.elapsed().as_secs_f64();
+                Ok(CompletionOutcome {
+                    iterations: Some(res.steps.iter().map(|s| s.1).sum()),
+                    dictionary: Some(dictionary),
+                    seconds_nicp: Some(seconds_nicp),
+                    ..CompletionOutcome::new(res.positions)
+                })
+            }
+        }
+    }
+}

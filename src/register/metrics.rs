@@ -3,8 +3,7 @@
 //! correspondence error (Fig. 7 right, protocol of Kim et al. 2011 with
 //! Euclidean distances), and cumulative curves of either.
 
-use kiddo::{ImmutableKdTree, SquaredEuclidean};
-
+use super::spatial::PointIndex;
 use crate::{Error, Point, Result};
 
 /// `‖a_i − b_i‖ / √area` per vertex.
@@ -61,19 +60,8 @@ pub fn nearest_points(from: &[Point], to: &[Point]) -> Result<Vec<(usize, f64)>>
     if to.is_empty() {
         return Err(Error::invalid("nearest point search in an empty set"));
     }
-    let pts: Vec<[f64; 3]> = to.iter().map(|p| [p.x, p.y, p.z]).collect();
-    let tree = ImmutableKdTree::<f64, 3>::new_from_slice(&pts)
-        .map_err(|e| Error::numerical(format!("kd-tree construction failed: {e:?}")))?;
-    Ok(from
-        .iter()
-        .map(|p| {
-            let r = tree
-                .query(&[p.x, p.y, p.z])
-                .nearest_one::<SquaredEuclidean<f64>>()
-                .execute();
-            (r.item as usize, r.distance.max(0.0).sqrt())
-        })
-        .collect())
+    let index = PointIndex::new(to)?;
+    Ok(from.iter().map(|p| index.nearest(p)).collect())
 }
 
 /// Correspondence errors (Fig. 7 right): a partial-target vertex `i`

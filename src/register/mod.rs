@@ -14,26 +14,31 @@
 //!
 //! Contents: energies and their optimisation ([`solver`]), the paper's
 //! schedule ([`pipeline`]), constraints including the geodesic-circle
-//! feature constraints ([`constraints`]), nonrigid ICP ([`nicp`]),
-//! automatic feature correspondence and shape interpolation
-//! ([`correspondence`]), error measures ([`metrics`]).
+//! feature constraints ([`constraints`]), nonrigid ICP ([`nicp`](mod@nicp)) and its
+//! closest-point matcher ([`matcher`], shared with the baselines), the
+//! crate's nearest-neighbour index ([`spatial`]), automatic feature
+//! correspondence and shape interpolation ([`correspondence`]), error
+//! measures ([`metrics`]).
 
 pub mod constraints;
 pub mod correspondence;
+pub mod matcher;
 pub mod metrics;
 pub mod model;
 pub mod nicp;
 pub mod pipeline;
 pub mod setup;
 pub mod solver;
+pub mod spatial;
 
 pub use constraints::{
     apply_rows, circle_radii, feature_circle_constraints, feature_row_groups, geodesic_circle_rows,
     vertex_rows,
 };
 pub use correspondence::{best_permutation, interpolate, permutations, PermutationSearch};
+pub use matcher::{Matcher, Matches};
 pub use model::{ArapGraph, FbtModel};
-pub use nicp::{nicp, NicpOptions, NicpResult};
+pub use nicp::{minimal_step, nicp, NicpOptions, NicpResult};
 pub use pipeline::{FbtPipeline, InitMethod, PipelineSystems, Registration, Schedule};
 pub use setup::{
     build, synthetic_class, ClusterSource, DictionaryExamples, FbtConfig, FbtSetup, StageConfig,
@@ -43,3 +48,4 @@ pub use solver::{
     AverageSolution, ConstraintRows, ExampleSolution, FbtParams, FbtSystem, IterOptions,
     MinimalSolution, ScaleMode, Step, Trace,
 };
+pub use spatial::{Neighbour, PointIndex};

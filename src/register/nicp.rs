@@ -3,13 +3,14 @@
 //!
 //! Each iteration:
 //!
-//! 1. **Correspondences.** The deformed template `D T` (its vertex normals
-//!    from the reference faces) is sampled at `samples` vertices (farthest
-//!    point sampling on the reference, fixed across iterations). For each
-//!    sample the `neighbours` nearest target vertices are found with a
-//!    kd-tree (kiddo) built once on the target; the nearest one whose normal
-//!    makes an angle below `max_normal_angle_deg` with the sample's normal
-//!    is its match.
+//! 1. **Correspondences** ([`Matcher`], shared with the baselines' ICP
+//!    loops). The deformed template `D T` (its vertex normals from the
+//!    reference faces) is sampled at `samples` vertices (farthest point
+//!    sampling on the reference, fixed across iterations). For each sample
+//!    the `neighbours` nearest target vertices are found with a
+//!    [`PointIndex`](super::spatial::PointIndex) built once on the target;
+//!    the nearest one whose normal makes an angle below
+//!    `max_normal_angle_deg` with the sample's normal is its match.
 //! 2. **Rejection.** Pairs farther than `max_distance · √A` (A = template
 //!    area), pairs without a compatible normal, and — for partial targets —
 //!    pairs whose target vertex lies on the target's boundary (a template
@@ -21,24 +22,24 @@
 //!    on the synthetic class (β_lc = 1000, 8 features × 10 circles, 600
 //!    samples): a total of 1–4 feature rows works best; per-row weights as
 //!    large as a feature row's overfit the closest-point noise.
-//! 4. **Solve.** A new [`FbtSystem`] for this `H` (X and Γ factorised, of
-//!    cost O(h b² + b³)) and `inner_iterations` of the minimal energy E_mn
+//! 4. **Solve** ([`minimal_step`], also the solve of the automatic
+//!    correspondence's nonrigid ICP in `transfer::auto`). A new
+//!    [`FbtSystem`] for this `H` (X and Γ factorised, of cost
+//!    O(h b² + b³)) and `inner_iterations` of the minimal energy E_mn
 //!    warm-started from the previous transformations.
 //!
 //! Only a subset of points needs matching because the deformation lives in
 //! the dictionary's span (the paper's remark). The result keeps the mean
 //! distance of the accepted pairs per iteration.
 
-use std::num::NonZero;
 use std::sync::Arc;
 
-use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::DMatrix;
 
+use super::matcher::Matcher;
 use super::model::FbtModel;
-use super::solver::{ConstraintRows, FbtParams, FbtSystem, IterOptions};
+use super::solver::{ConstraintRows, FbtParams, FbtSystem, IterOptions, MinimalSolution};
 use crate::mesh::Mesh;
-use crate::ops::{boundary_vertices, farthest_point_sampling, vertex_normals, FpsMetric};
 use crate::{Error, Point, Result};
 
 /// Options of [`nicp`].
@@ -134,24 +135,7 @@ pub fn nicp(
     }
     let graph = model.graph();
     let reference = graph.reference();
-    let n = reference.n_vertices();
-    let samples: Vec<usize> = if opts.samples == 0 || opts.samples >= n {
-        (0..n).collect()
-    } else {
-        farthest_point_sampling(reference, opts.samples, FpsMetric::Euclidean, opts.seed)?
-    };
-    let tpts: Vec<[f64; 3]> = target.vertices().iter().map(|p| [p.x, p.y, p.z]).collect();
-    let tree = ImmutableKdTree::<f64, 3>::new_from_slice(&tpts)
-        .map_err(|e| Error::numerical(format!("kd-tree construction failed: {e:?}")))?;
-    let tnormals = vertex_normals(target);
-    let boundary = if opts.reject_boundary {
-        boundary_vertices(target)
-    } else {
-        vec![false; target.n_vertices()]
-    };
-    let dmax = opts.max_distance * graph.area().sqrt();
-    let cos_max = opts.max_normal_angle_deg.to_radians().cos();
-    let k = NonZero::new(opts.neighbours.max(1)).unwrap_or(NonZero::<usize>::MIN);
+    let matcher = Matcher::new(reference, graph.area(), target, opts)?;
     let fw = opts.feature_weight.sqrt();
 
     let mut t = t0.clone();
@@ -161,8 +145,7 @@ pub fn nicp(
     let mut mean_distance = Vec::new();
     for _ in 0..opts.iterations {
         let p = model.positions(&t)?;
-        let deformed = reference.with_vertices(p.clone())?;
-        let normals = vertex_normals(&deformed);
+        let matches = matcher.matches(&p)?;
         let mut rows: ConstraintRows = feature_rows
             .iter()
             .map(|r| r.iter().map(|&(i, w)| (i, w * fw)).collect())
@@ -176,52 +159,17 @@ pub fn nicp(
                 ]
             })
             .collect();
-        let mut dsum = 0.0;
-        let mut count = 0;
-        let mut pairs: Vec<(usize, usize)> = Vec::new();
-        for &i in &samples {
-            let q = [p[i].x, p[i].y, p[i].z];
-            let hits = tree
-                .query(&q)
-                .nearest_n::<SquaredEuclidean<f64>>(k)
-                .execute();
-            let m = hits.iter().find(|h| {
-                let j = h.item as usize;
-                tnormals[j].dot(&normals[i]) >= cos_max
-            });
-            let Some(h) = m else { continue };
-            let j = h.item as usize;
-            let d = h.distance.max(0.0).sqrt();
-            if d > dmax || boundary[j] {
-                continue;
-            }
-            pairs.push((i, j));
-            dsum += d;
-            count += 1;
-        }
+        let count = matches.pairs.len();
         let cw = (opts.correspondence_weight / count.max(1) as f64).sqrt();
-        for &(i, j) in &pairs {
+        for &(i, j) in &matches.pairs {
             rows.push(vec![(i, cw)]);
             let tp = target.vertices()[j];
             ys.push([tp.x * cw, tp.y * cw, tp.z * cw]);
         }
         accepted.push(count);
-        mean_distance.push(if count > 0 {
-            dsum / count as f64
-        } else {
-            f64::NAN
-        });
+        mean_distance.push(matches.mean_distance);
         let y = DMatrix::from_fn(ys.len(), 3, |r, c| ys[r][c]);
-        let sys = FbtSystem::new(model.clone(), rows, *params)?;
-        let sol = sys.solve_minimal(
-            &y,
-            &t,
-            Some(alpha),
-            &IterOptions {
-                max_iter: opts.inner_iterations.max(1),
-                rel_tol: 1e-8,
-            },
-        )?;
+        let sol = minimal_step(model, params, rows, &y, &t, alpha, opts.inner_iterations)?;
         t = sol.t().clone();
         alpha = sol.alpha();
         example = sol.best;
@@ -235,4 +183,29 @@ pub fn nicp(
         accepted,
         mean_distance,
     })
+}
+
+/// The solve of one nonrigid ICP iteration: a new [`FbtSystem`] for the
+/// constraint rows `rows` (targets `y`) and `inner_iterations` (at least
+/// one) local / scale / global iterations of the minimal energy E_mn
+/// (FBT Eq. 12) warm-started from the transformations `t` and scale `alpha`.
+pub fn minimal_step(
+    model: &Arc<FbtModel>,
+    params: &FbtParams,
+    rows: ConstraintRows,
+    y: &DMatrix<f64>,
+    t: &DMatrix<f64>,
+    alpha: f64,
+    inner_iterations: usize,
+) -> Result<MinimalSolution> {
+    let sys = FbtSystem::new(model.clone(), rows, *params)?;
+    sys.solve_minimal(
+        y,
+        t,
+        Some(alpha),
+        &IterOptions {
+            max_iter: inner_iterations.max(1),
+            rel_tol: 1e-8,
+        },
+    )
 }

@@ -210,7 +210,7 @@ pub fn build(examples: &[Mesh], cfg: &FbtConfig) -> Result<FbtSetup> {
         .iter()
         .filter_map(|s| match s.weights {
             WeightChoice::Lbo { m } => Some(m),
-            _ => None,
+            WeightChoice::Segments { .. } | WeightChoice::Biharmonic { .. } => None,
         })
         .max();
     let lbo = m_lbo

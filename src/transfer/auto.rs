@@ -59,11 +59,9 @@
 //! [`perturb_keypoints`] is the noise model of the robustness experiment: a
 //! seeded random vertex within a geodesic (edge-path) radius.
 
-use std::num::NonZero;
 use std::sync::Arc;
 use std::time::Instant;
 
-use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::{DMatrix, SymmetricEigen};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -76,8 +74,10 @@ use crate::ops::{
     farthest_point_sampling, mass_matrix, vertex_faces, vertex_normals, FpsMetric, MassKind,
 };
 use crate::register::model::FbtModel;
+use crate::register::nicp::minimal_step;
 use crate::register::setup::{build, ClusterSource, DictionaryExamples, FbtConfig, StageConfig};
-use crate::register::solver::{ConstraintRows, FbtParams, FbtSystem, IterOptions};
+use crate::register::solver::{ConstraintRows, FbtParams};
+use crate::register::spatial::PointIndex;
 use crate::skin::Affine;
 use crate::solve::EigenOptions;
 use crate::{Error, Mat3, Point, Result, Vec3};
@@ -297,20 +297,6 @@ impl AutoCorrespondence {
     }
 }
 
-fn kd_tree(points: &[Point]) -> Result<ImmutableKdTree<f64, 3>> {
-    let pts: Vec<[f64; 3]> = points.iter().map(|p| [p.x, p.y, p.z]).collect();
-    ImmutableKdTree::<f64, 3>::new_from_slice(&pts)
-        .map_err(|e| Error::numerical(format!("kd-tree construction failed: {e:?}")))
-}
-
-fn nearest(tree: &ImmutableKdTree<f64, 3>, p: &Point) -> (usize, f64) {
-    let r = tree
-        .query(&[p.x, p.y, p.z])
-        .nearest_one::<SquaredEuclidean<f64>>()
-        .execute();
-    (r.item as usize, r.distance.max(0.0).sqrt())
-}
-
 /// Voronoi-area-weighted centroid, covariance and total area.
 fn moments(mesh: &Mesh) -> Result<(Point, Mat3, f64)> {
     let m = mass_matrix(mesh, MassKind::Voronoi);
@@ -382,8 +368,8 @@ fn samples(mesh: &Mesh, k: usize, seed: u64) -> Result<Vec<usize>> {
 struct RigidProblem<'a> {
     a: &'a Mesh,
     b: &'a Mesh,
-    tree_a: ImmutableKdTree<f64, 3>,
-    tree_b: ImmutableKdTree<f64, 3>,
+    tree_a: PointIndex,
+    tree_b: PointIndex,
     sa: Vec<usize>,
     sb: Vec<usize>,
     sqrt_area_b: f64,
@@ -396,11 +382,11 @@ impl RigidProblem<'_> {
         let (av, bv) = (self.a.vertices(), self.b.vertices());
         let mut s = 0.0;
         for &i in &self.sa {
-            s += nearest(&self.tree_b, &m.apply(&av[i])).1;
+            s += self.tree_b.nearest(&m.apply(&av[i])).1;
         }
         for &j in &self.sb {
             // Distance in A's frame, scaled back to B's.
-            s += nearest(&self.tree_a, &m.invert(&bv[j])).1 * m.scale;
+            s += self.tree_a.nearest(&m.invert(&bv[j])).1 * m.scale;
         }
         s / (self.sa.len() + self.sb.len()) as f64 / self.sqrt_area_b
     }
@@ -413,12 +399,12 @@ impl RigidProblem<'_> {
             let mut fixed = Vec::with_capacity(moving.capacity());
             for &i in &self.sa {
                 let p = m.apply(&av[i]);
-                let (j, _) = nearest(&self.tree_b, &p);
+                let (j, _) = self.tree_b.nearest(&p);
                 moving.push(p);
                 fixed.push(bv[j]);
             }
             for &j in &self.sb {
-                let (i, _) = nearest(&self.tree_a, &m.invert(&bv[j]));
+                let (i, _) = self.tree_a.nearest(&m.invert(&bv[j]));
                 moving.push(m.apply(&av[i]));
                 fixed.push(bv[j]);
             }
@@ -443,8 +429,8 @@ pub fn coarse_align(a: &Mesh, b: &Mesh, opts: &AutoOptions) -> Result<CoarseAlig
     let prob = RigidProblem {
         a,
         b,
-        tree_a: kd_tree(a.vertices())?,
-        tree_b: kd_tree(b.vertices())?,
+        tree_a: PointIndex::new(a.vertices())?,
+        tree_b: PointIndex::new(b.vertices())?,
         sa: samples(a, opts.coarse_samples, opts.seed)?,
         sb: samples(b, opts.coarse_samples, opts.seed)?,
         sqrt_area_b: area_b.sqrt(),
@@ -544,20 +530,16 @@ pub fn project_to_vertices(
             mesh.n_vertices()
         )));
     }
-    let tree = kd_tree(mesh.vertices())?;
+    let tree = PointIndex::new(mesh.vertices())?;
     let vf = vertex_faces(mesh);
     let (v, f) = (mesh.vertices(), mesh.faces());
-    let kk = NonZero::new(k.max(1)).unwrap_or(NonZero::<usize>::MIN);
     let mut used: Vec<usize> = Vec::new();
     let mut surface = Vec::new();
     for q in queries {
-        let hits = tree
-            .query(&[q.x, q.y, q.z])
-            .nearest_n::<SquaredEuclidean<f64>>(kk)
-            .execute();
+        let hits = tree.nearest_n(q, k);
         let mut best: Option<(f64, Point, usize)> = None;
         for h in &hits {
-            for &fi in vf.row(h.item as usize) {
+            for &fi in vf.row(h.index) {
                 let t = f[fi];
                 let c = closest_point_on_triangle(q, &v[t[0]], &v[t[1]], &v[t[2]]);
                 let d = (c - q).norm_squared();
@@ -581,13 +563,9 @@ pub fn project_to_vertices(
                 // All corners taken: the nearest unused vertex to the surface point.
                 let mut n = (k.max(1) + used.len()).min(mesh.n_vertices());
                 loop {
-                    let nn = NonZero::new(n).unwrap_or(NonZero::<usize>::MIN);
-                    let hits = tree
-                        .query(&[sp.x, sp.y, sp.z])
-                        .nearest_n::<SquaredEuclidean<f64>>(nn)
-                        .execute();
-                    if let Some(h) = hits.iter().find(|h| !used.contains(&(h.item as usize))) {
-                        break h.item as usize;
+                    let hits = tree.nearest_n(&sp, n);
+                    if let Some(h) = hits.iter().find(|h| !used.contains(&h.index)) {
+                        break h.index;
                     }
                     if n >= mesh.n_vertices() {
                         return Err(Error::invalid("no unused vertex left for a key point"));
@@ -604,10 +582,10 @@ pub fn project_to_vertices(
 
 /// Symmetric mean vertex-to-nearest-vertex distance between two point sets.
 fn symmetric_distance(p: &[Point], q: &[Point]) -> Result<f64> {
-    let tp = kd_tree(p)?;
-    let tq = kd_tree(q)?;
-    let s1: f64 = p.iter().map(|x| nearest(&tq, x).1).sum();
-    let s2: f64 = q.iter().map(|x| nearest(&tp, x).1).sum();
+    let tp = PointIndex::new(p)?;
+    let tq = PointIndex::new(q)?;
+    let s1: f64 = p.iter().map(|x| tq.nearest(x).1).sum();
+    let s2: f64 = q.iter().map(|x| tp.nearest(x).1).sum();
     Ok((s1 + s2) / (p.len() + q.len()) as f64)
 }
 
@@ -725,7 +703,7 @@ fn register(
     let mut alpha = 1.0;
 
     let bv = b.vertices();
-    let tree_b = kd_tree(bv)?;
+    let tree_b = PointIndex::new(bv)?;
     let mut nb = vertex_normals(b);
     if signed_volume(aligned).signum() != signed_volume(b).signum() {
         nb.iter_mut().for_each(|x| *x = -*x);
@@ -733,7 +711,6 @@ fn register(
     let sa = samples(aligned, opts.samples, opts.seed)?;
     let sb = samples(b, opts.samples, opts.seed)?;
     let cos_max = opts.max_normal_angle_deg.to_radians().cos();
-    let k = NonZero::new(opts.neighbours.max(1)).unwrap_or(NonZero::<usize>::MIN);
     let lw = opts.landmark_weight.sqrt();
     let mut trace = Vec::new();
     for stage in &opts.stages {
@@ -742,36 +719,24 @@ fn register(
             let p = model.positions(&t)?;
             let deformed = aligned.with_vertices(p.clone())?;
             let np = vertex_normals(&deformed);
-            let tree_p = kd_tree(&p)?;
+            let tree_p = PointIndex::new(&p)?;
             let mut pairs: Vec<(usize, Point, f64)> = Vec::new();
             for &i in &sa {
-                let hits = tree_b
-                    .query(&[p[i].x, p[i].y, p[i].z])
-                    .nearest_n::<SquaredEuclidean<f64>>(k)
-                    .execute();
-                if let Some(h) = hits
-                    .iter()
-                    .find(|h| nb[h.item as usize].dot(&np[i]) >= cos_max)
-                {
-                    let d = h.distance.max(0.0).sqrt();
+                let hits = tree_b.nearest_n(&p[i], opts.neighbours);
+                if let Some(h) = hits.iter().find(|h| nb[h.index].dot(&np[i]) >= cos_max) {
+                    let d = h.distance();
                     if d <= dmax {
-                        pairs.push((i, bv[h.item as usize], d));
+                        pairs.push((i, bv[h.index], d));
                     }
                 }
             }
             for &j in &sb {
                 let q = bv[j];
-                let hits = tree_p
-                    .query(&[q.x, q.y, q.z])
-                    .nearest_n::<SquaredEuclidean<f64>>(k)
-                    .execute();
-                if let Some(h) = hits
-                    .iter()
-                    .find(|h| np[h.item as usize].dot(&nb[j]) >= cos_max)
-                {
-                    let d = h.distance.max(0.0).sqrt();
+                let hits = tree_p.nearest_n(&q, opts.neighbours);
+                if let Some(h) = hits.iter().find(|h| np[h.index].dot(&nb[j]) >= cos_max) {
+                    let d = h.distance();
                     if d <= dmax {
-                        pairs.push((h.item as usize, q, d));
+                        pairs.push((h.index, q, d));
                     }
                 }
             }
@@ -797,15 +762,14 @@ fn register(
                 ys.push([q.x * cw, q.y * cw, q.z * cw]);
             }
             let y = DMatrix::from_fn(ys.len(), 3, |r, c| ys[r][c]);
-            let sys = FbtSystem::new(model.clone(), rows, opts.params)?;
-            let sol = sys.solve_minimal(
+            let sol = minimal_step(
+                &model,
+                &opts.params,
+                rows,
                 &y,
                 &t,
-                Some(alpha),
-                &IterOptions {
-                    max_iter: opts.inner_iterations.max(1),
-                    rel_tol: 1e-8,
-                },
+                alpha,
+                opts.inner_iterations,
             )?;
             t = sol.t().clone();
             alpha = sol.alpha();

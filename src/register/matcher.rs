@@ -1,21 +1,19 @@
-//! The correspondence step of the nonrigid ICP loops of the registration
-//! baselines ([`super::der`], [`super::amberg`]), with the same options and
-//! the same rules as FBT's [`crate::register::nicp`] (steps 1–2 there):
-//! for each sampled template vertex, the `neighbours` nearest target
-//! vertices (kd-tree on the target, built once) are examined and the
-//! nearest one whose normal makes an angle below `max_normal_angle_deg`
-//! with the deformed template's vertex normal is its match; pairs farther
-//! than `max_distance · √A` (A = template area), pairs without a compatible
+//! The correspondence step of every nonrigid ICP loop of the registration
+//! methods: FBT's [`nicp`](mod@super::nicp) (steps 1–2 there) and the Der et al. and
+//! Amberg et al. baselines (which use it from above: `register` imports no
+//! baseline), with the options of [`NicpOptions`]. For each sampled
+//! template vertex, the `neighbours` nearest target vertices (a
+//! [`PointIndex`] on the target, built once) are examined and the nearest
+//! one whose normal makes an angle below `max_normal_angle_deg` with the
+//! deformed template's vertex normal is its match; pairs farther than
+//! `max_distance · √A` (A = template area), pairs without a compatible
 //! normal and — for partial targets — pairs whose target vertex lies on the
 //! target's boundary are rejected.
 
-use std::num::NonZero;
-
-use kiddo::{ImmutableKdTree, SquaredEuclidean};
-
+use super::nicp::NicpOptions;
+use super::spatial::PointIndex;
 use crate::mesh::Mesh;
 use crate::ops::{boundary_vertices, farthest_point_sampling, vertex_normals, FpsMetric};
-use crate::register::NicpOptions;
 use crate::{Error, Point, Result, Vec3};
 
 /// Closest compatible points on a fixed target.
@@ -25,7 +23,7 @@ pub struct Matcher {
     target: Vec<Point>,
     normals: Vec<Vec3>,
     boundary: Vec<bool>,
-    tree: ImmutableKdTree<f64, 3>,
+    index: PointIndex,
     dmax: f64,
     cos_max: f64,
     neighbours: usize,
@@ -61,9 +59,7 @@ impl Matcher {
         } else {
             farthest_point_sampling(reference, opts.samples, FpsMetric::Euclidean, opts.seed)?
         };
-        let pts: Vec<[f64; 3]> = target.vertices().iter().map(|p| [p.x, p.y, p.z]).collect();
-        let tree = ImmutableKdTree::<f64, 3>::new_from_slice(&pts)
-            .map_err(|e| Error::numerical(format!("kd-tree construction failed: {e:?}")))?;
+        let index = PointIndex::new(target.vertices())?;
         let boundary = if opts.reject_boundary {
             boundary_vertices(target)
         } else {
@@ -75,7 +71,7 @@ impl Matcher {
             target: target.vertices().to_vec(),
             normals: vertex_normals(target),
             boundary,
-            tree,
+            index,
             dmax: opts.max_distance * area.sqrt(),
             cos_max: opts.max_normal_angle_deg.to_radians().cos(),
             neighbours: opts.neighbours.max(1),
@@ -96,23 +92,18 @@ impl Matcher {
     pub fn matches(&self, p: &[Point]) -> Result<Matches> {
         let deformed = self.reference.with_vertices(p.to_vec())?;
         let normals = vertex_normals(&deformed);
-        let k = NonZero::new(self.neighbours).unwrap_or(NonZero::<usize>::MIN);
         let mut pairs = Vec::new();
         let mut dsum = 0.0;
         for &i in &self.samples {
-            let hits = self
-                .tree
-                .query(&[p[i].x, p[i].y, p[i].z])
-                .nearest_n::<SquaredEuclidean<f64>>(k)
-                .execute();
+            let hits = self.index.nearest_n(&p[i], self.neighbours);
             let Some(h) = hits
                 .iter()
-                .find(|h| self.normals[h.item as usize].dot(&normals[i]) >= self.cos_max)
+                .find(|h| self.normals[h.index].dot(&normals[i]) >= self.cos_max)
             else {
                 continue;
             };
-            let j = h.item as usize;
-            let d = h.distance.max(0.0).sqrt();
+            let j = h.index;
+            let d = h.distance();
             if d > self.dmax || self.boundary[j] {
                 continue;
             }
