@@ -44,8 +44,11 @@ fn modules(root: &Path) -> BTreeMap<Module, String> {
 
 fn is_ident(s: &str) -> bool {
     !s.is_empty()
-        && s.chars().next().is_some_and(|c| c.is_ascii_lowercase() || c == '_')
-        && s.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
+        && s.chars()
+            .next()
+            .is_some_and(|c| c.is_ascii_lowercase() || c == '_')
+        && s.chars()
+            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
 }
 
 /// The paths after each occurrence of `prefix` (`crate::` or `super::`),
@@ -154,7 +157,12 @@ fn no_import_loop_between_files() {
     let l = loops(&g);
     let show: Vec<String> = l
         .iter()
-        .map(|c| c.iter().map(|m| m.join("::")).collect::<Vec<_>>().join(" ↔ "))
+        .map(|c| {
+            c.iter()
+                .map(|m| m.join("::"))
+                .collect::<Vec<_>>()
+                .join(" ↔ ")
+        })
         .collect();
     assert!(l.is_empty(), "import loops: {show:#?}");
 }
@@ -193,7 +201,11 @@ fn top_level_modules_import_only_lower_layers() {
                 continue;
             }
             let (Some(&ra), Some(&rb)) = (rank.get(a), rank.get(b)) else {
-                bad.push(format!("{} → {} (module without a layer)", m.join("::"), t.join("::")));
+                bad.push(format!(
+                    "{} → {} (module without a layer)",
+                    m.join("::"),
+                    t.join("::")
+                ));
                 continue;
             };
             if ra <= rb {
@@ -209,7 +221,10 @@ fn top_level_modules_import_only_lower_layers() {
 fn the_checker_sees_a_planted_loop() {
     let mut m = BTreeMap::new();
     m.insert(vec!["a".to_string()], "use crate::b::X;".to_string());
-    m.insert(vec!["b".to_string()], "fn f() { crate::c::g() }".to_string());
+    m.insert(
+        vec!["b".to_string()],
+        "fn f() { crate::c::g() }".to_string(),
+    );
     m.insert(vec!["c".to_string()], "use crate::{a::Y, b};".to_string());
     m.insert(vec!["d".to_string()], "use crate::a;".to_string());
     let l = loops(&edges(&m));

@@ -552,6 +552,26 @@ pub fn match_triangles(
     TriangleCorrespondence::new(pairs, deformed_source.n_faces(), target.n_faces())
 }
 
+/// The full Sumner–Popović pipeline (in this module, beside the
+/// correspondence step it runs first, so that `sumner` does not import it).
+impl DeformationTransfer {
+    /// The full pipeline for meshes with different connectivity: the
+    /// correspondence step ([`correspond`]) with the marker pairs `(source
+    /// vertex, target vertex)`, then [`DeformationTransfer::new`] on its
+    /// triangle pairs.
+    pub fn from_markers(
+        source_reference: &Mesh,
+        target_reference: &Mesh,
+        markers: &[(usize, usize)],
+        correspondence: &CorrespondenceOptions,
+        opts: &SumnerTransferOptions,
+    ) -> Result<(Self, CorrespondenceResult)> {
+        let res = correspond(source_reference, target_reference, markers, correspondence)?;
+        let dt = Self::new(source_reference, target_reference, &res.triangles, opts)?;
+        Ok((dt, res))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -575,25 +595,5 @@ mod tests {
             let got = closest_point_on_triangle(&p, &a, &b, &c);
             assert!((got - want).norm() < 1e-12, "{p} → {got}, want {want}");
         }
-    }
-}
-
-/// The full Sumner–Popović pipeline (in this module, beside the
-/// correspondence step it runs first, so that `sumner` does not import it).
-impl DeformationTransfer {
-    /// The full pipeline for meshes with different connectivity: the
-    /// correspondence step ([`correspond`]) with the marker pairs `(source
-    /// vertex, target vertex)`, then [`DeformationTransfer::new`] on its
-    /// triangle pairs.
-    pub fn from_markers(
-        source_reference: &Mesh,
-        target_reference: &Mesh,
-        markers: &[(usize, usize)],
-        correspondence: &CorrespondenceOptions,
-        opts: &SumnerTransferOptions,
-    ) -> Result<(Self, CorrespondenceResult)> {
-        let res = correspond(source_reference, target_reference, markers, correspondence)?;
-        let dt = Self::new(source_reference, target_reference, &res.triangles, opts)?;
-        Ok((dt, res))
     }
 }

@@ -195,18 +195,20 @@ fn registration_cases(out: &mut String) -> Result<Vec<RegCase>> {
 /// clusters of the default configuration). Medians of 3 runs (1 when
 /// `quick`).
 pub fn bench_registration(quick: bool) -> Result<String> {
-    use crate::baselines::{amberg_nicp, AmbergOptions, DerModel, DerOptions};
-    use crate::data::partial::{feature_points, make_partial, PartialOptions};
-    use crate::register::{
-        build, circle_radii, feature_circle_constraints, metrics, FbtConfig, NicpOptions,
+    use crate::methods::completion::{
+        CompletionProblem, CompletionSolver, FbtOptions, FeatureOptions,
     };
+    use crate::register::metrics;
     let mut out = String::new();
     let reps = if quick { 1 } else { 3 };
     let cases = registration_cases(&mut out)?;
+    let opts = FbtOptions::default();
     let _ = writeln!(
         out,
-        "medians of {reps} run(s); {} thread(s) for faer; NICP 10 iterations (Der), Amberg default schedule\n",
-        crate::solve::threads()
+        "medians of {reps} run(s); {} thread(s) for faer; the completion task's solvers \
+         (methods::completion, FbtOptions::default(): NICP {} iterations for Der, Amberg's own schedule)\n",
+        crate::solve::threads(),
+        opts.nicp_iterations
     );
     let _ = writeln!(
         out,
@@ -214,62 +216,30 @@ pub fn bench_registration(quick: bool) -> Result<String> {
     );
     let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|");
     for c in &cases {
-        let reference = &c.examples[0];
-        let area: f64 = crate::ops::mass_matrix(reference, crate::ops::MassKind::Voronoi)
-            .iter()
-            .sum();
-        let feats = feature_points(&c.target, 8, 0)?;
-        let partial = make_partial(&c.target, &feats, &PartialOptions::default())?;
-        let pairs: Vec<(usize, usize)> = feats
-            .iter()
-            .zip(&partial.features)
-            .map(|(&f, &g)| (f, g))
-            .collect();
-        let radii = circle_radii(10, 0.15 * area.sqrt());
-        let (rows, y) = feature_circle_constraints(reference, &partial.mesh, &pairs, &radii)?;
-        let setup = build(&c.examples, &FbtConfig::default())?;
-        let opts = DerOptions::default();
-        let icp = NicpOptions::default();
+        let problem =
+            CompletionProblem::new(&c.examples, &c.target, &FeatureOptions::default(), 0)?;
+        let der = CompletionSolver::der(&opts, 0);
+        let amberg = CompletionSolver::amberg(&opts, 0);
         let (mut t_pre, mut t_reg, mut t_nicp, mut t_amb) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let (mut d_der, mut d_amb) = (f64::NAN, f64::NAN);
         let mut r = 0;
         for _ in 0..reps {
-            let t = Instant::now();
-            let model = DerModel::new(&c.examples, &setup.clusters)?;
-            t_pre.push(t.elapsed().as_secs_f64());
-            r = model.n_clusters();
-            let t = Instant::now();
-            let prob = model.problem(&rows, &y, opts.beta)?;
-            let reg = model.register(&prob, &opts)?;
-            t_reg.push(t.elapsed().as_secs_f64());
-            let t = Instant::now();
-            let res = model.nicp((&rows, &y), &partial.mesh, &reg.state, &icp, &opts)?;
-            t_nicp.push(t.elapsed().as_secs_f64());
-            d_der = metrics::mean(&metrics::relative_distortion(
-                &res.positions,
-                c.target.vertices(),
-                area,
-            )?);
-            let t = Instant::now();
-            let res = amberg_nicp(
-                reference,
-                &partial.mesh,
-                (&rows, &y),
-                &AmbergOptions::default(),
-            )?;
-            t_amb.push(t.elapsed().as_secs_f64());
-            d_amb = metrics::mean(&metrics::relative_distortion(
-                &res.positions,
-                c.target.vertices(),
-                area,
-            )?);
+            let o = der.solve(&problem)?;
+            t_pre.push(o.seconds_precompute.unwrap_or(f64::NAN));
+            t_reg.push(o.seconds_solve.unwrap_or(f64::NAN));
+            t_nicp.push(o.seconds_nicp.unwrap_or(f64::NAN));
+            r = o.n_clusters.unwrap_or(0);
+            d_der = metrics::mean(&problem.distortion(&o.positions)?);
+            let o = amberg.solve(&problem)?;
+            t_amb.push(o.seconds_nicp.unwrap_or(f64::NAN));
+            d_amb = metrics::mean(&problem.distortion(&o.positions)?);
         }
         let _ = writeln!(
             out,
             "| {} | {} | {r} | {:.1} | {:.1} | {:.2} | {:.4} | {:.2} | {:.4} |",
             c.name,
-            reference.n_vertices(),
+            problem.reference().n_vertices(),
             1e3 * median(t_pre),
             1e3 * median(t_reg),
             median(t_nicp),

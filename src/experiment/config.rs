@@ -58,11 +58,15 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::methods::completion::{
+    CompareWith, DictionaryKind, FbtOptions, FeatureOptions, SolverKind,
+};
 use crate::methods::{
     BdtOptions, Clustering, Examples, KeypointSource, Pool, Strategy, TargetCorrespondence,
     TargetPoints, TransferMethod,
 };
 use crate::ops::FpsMetric;
+use crate::register::DictionaryExamples;
 use crate::skin::{FeatureKind, GroupFeatures};
 use crate::transfer::{
     ErrorNorm, FastOptions, KeypointOptions, SelectionMode, TargetWeights, TransferFrame,
@@ -386,9 +390,232 @@ pipeline_struct! {
         /// Clustering: clusters (default: the number of true labels, else `handles`).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         pub n_clusters: Option<usize>,
-        /// `kind = "fbt"`: the task and its options ([`super::fbt::FbtSpec`]).
+        /// `kind = "fbt"`: the task and its options ([`FbtSpec`]).
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        pub fbt: Option<super::fbt::FbtSpec>,
+        pub fbt: Option<FbtSpec>,
+    }
+}
+
+/// What an FBT method measures (see the module docs).
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum FbtTask {
+    Timing,
+    Projection,
+    Scale,
+    Completion,
+    Permutation,
+    Interpolation,
+}
+
+/// `[methods.fbt]` / `fbt = { .. }` of a `kind = "fbt"` method.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FbtSpec {
+    pub task: FbtTask,
+    /// Number of example shapes (default 4).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub q: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dictionary: Option<DictionaryKind>,
+    /// LBO eigenfunctions (projection: of the dictionary, default 10;
+    /// otherwise of the main stage, default that of `FbtConfig`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub m: Option<usize>,
+    /// Segments of the skeleton weights (default 12).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub segments: Option<usize>,
+    /// Shapes besides the reference the skeleton weights are learnt from
+    /// (default 4).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rig_poses: Option<usize>,
+    /// Rotation clusters r (default 20).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clusters: Option<usize>,
+    /// Scale applied to the target (`scale` task, default 1.5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<f64>,
+    /// Fixed global scale α (Fig. 8 C); default: α is optimised.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub alpha: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub compare: Option<CompareWith>,
+    /// Feature points (default 8).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub features: Option<usize>,
+    /// Geodesic circles per feature (default 10).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub circles: Option<usize>,
+    /// Largest circle radius relative to √area (default 0.15; 0.1 for
+    /// `permutation` and `interpolation`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius: Option<f64>,
+    /// Vertex-position constraints of the `scale` task (default 20).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vertices: Option<usize>,
+    /// Run NICP after the feature registration (`completion`, default true).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nicp: Option<bool>,
+    /// NICP iterations (default 10).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nicp_iterations: Option<usize>,
+    /// Size of the ambiguous feature group (`permutation`, default 4).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub group: Option<usize>,
+    /// Timing repetitions (`timing`, default 5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub repeats: Option<usize>,
+    /// Correspondence queries per case (Kim et al. curve, default 300).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub queries: Option<usize>,
+    /// Deformation model of the `completion` task: `"fbt"` (default),
+    /// `"der"` or `"amberg"`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub solver: Option<SolverKind>,
+}
+
+impl FbtSpec {
+    pub fn q(&self) -> usize {
+        self.resolve().q
+    }
+
+    /// The typed options: every unset field takes its default from
+    /// [`FbtOptions::default`] (the task-independent defaults; the full
+    /// target tasks' circle radius is `full_target_radius`).
+    pub fn resolve(&self) -> FbtOptions {
+        let d = FbtOptions::default();
+        FbtOptions {
+            q: self.q.unwrap_or(d.q),
+            m: self.m.unwrap_or(d.m),
+            segments: self.segments.unwrap_or(d.segments),
+            rig_poses: self.rig_poses.unwrap_or(d.rig_poses),
+            clusters: self.clusters.unwrap_or(d.clusters),
+            scale: self.scale.unwrap_or(d.scale),
+            alpha: self.alpha.or(d.alpha),
+            dictionary_examples: match self.dictionary.unwrap_or_default() {
+                DictionaryKind::Lbo | DictionaryKind::Skeleton => d.dictionary_examples,
+                DictionaryKind::OneExample => DictionaryExamples::First,
+            },
+            arap_examples: match self.compare.unwrap_or_default() {
+                CompareWith::All => d.arap_examples,
+                CompareWith::First => DictionaryExamples::First,
+            },
+            features: FeatureOptions {
+                features: self.features.unwrap_or(d.features.features),
+                circles: self.circles.unwrap_or(d.features.circles),
+                radius: self.radius.unwrap_or(d.features.radius),
+            },
+            full_target_radius: self.radius.unwrap_or(d.full_target_radius),
+            vertices: self.vertices.unwrap_or(d.vertices),
+            nicp: self.nicp.unwrap_or(d.nicp),
+            nicp_iterations: self.nicp_iterations.unwrap_or(d.nicp_iterations),
+            group: self.group.unwrap_or(d.group),
+            repeats: self.repeats.unwrap_or(d.repeats),
+            queries: self.queries.unwrap_or(d.queries),
+        }
+    }
+
+    /// Checks the options; errors are `(key, message)` relative to the
+    /// method's `fbt` table.
+    pub fn check(&self) -> std::result::Result<(), (String, String)> {
+        let e = |k: &str, m: &str| Err((k.to_string(), m.to_string()));
+        let pos = |k: &str, v: Option<usize>| -> std::result::Result<(), (String, String)> {
+            if v == Some(0) {
+                return Err((k.to_string(), "expected at least 1".into()));
+            }
+            Ok(())
+        };
+        pos("q", self.q)?;
+        pos("m", self.m)?;
+        pos("segments", self.segments)?;
+        pos("rig_poses", self.rig_poses)?;
+        pos("clusters", self.clusters)?;
+        pos("features", self.features)?;
+        pos("circles", self.circles)?;
+        pos("vertices", self.vertices)?;
+        pos("repeats", self.repeats)?;
+        pos("queries", self.queries)?;
+        if let Some(s) = self.scale {
+            if !(s.is_finite() && s > 0.0) {
+                return e("scale", "expected a positive number");
+            }
+        }
+        if let Some(a) = self.alpha {
+            if !(a.is_finite() && a > 0.0) {
+                return e("alpha", "expected a positive number");
+            }
+        }
+        if let Some(r) = self.radius {
+            if !(r.is_finite() && r > 0.0 && r < 1.0) {
+                return e("radius", "expected a number in (0, 1)");
+            }
+        }
+        if let Some(g) = self.group {
+            if !(1..=6).contains(&g) {
+                return e("group", "expected 1..=6 (720 assignments at most)");
+            }
+            if g > self.resolve().features.features {
+                return e("group", "expected at most `features` features");
+            }
+        }
+        if self.task == FbtTask::Projection && self.dictionary == Some(DictionaryKind::Skeleton) {
+            if self.m.is_some() {
+                return e(
+                    "m",
+                    "does not apply to the skeleton dictionary (use `segments`)",
+                );
+            }
+        } else if self.segments.is_some() || self.rig_poses.is_some() {
+            return e(
+                "segments",
+                "segments / rig_poses apply to task = \"projection\" with dictionary = \"skeleton\"",
+            );
+        }
+        match self.solver.unwrap_or_default() {
+            SolverKind::Fbt => {}
+            other @ (SolverKind::Der | SolverKind::Amberg) => {
+                if self.task != FbtTask::Completion {
+                    return e(
+                        "solver",
+                        &format!(
+                            "solver = \"{}\" applies to task = \"completion\" only",
+                            other.name()
+                        ),
+                    );
+                }
+                if self.dictionary.is_some() || self.m.is_some() || self.alpha.is_some() {
+                    return e(
+                        "solver",
+                        &format!(
+                            "dictionary / m / alpha are FBT options; solver = \"{}\" has none",
+                            other.name()
+                        ),
+                    );
+                }
+                if other == SolverKind::Amberg {
+                    if self.nicp == Some(false) || self.nicp_iterations.is_some() {
+                        return e(
+                            "nicp",
+                            "solver = \"amberg\" is a nonrigid ICP with its own stiffness \
+                             schedule: nicp / nicp_iterations do not apply",
+                        );
+                    }
+                    if self.clusters.is_some() || self.compare.is_some() {
+                        return e(
+                            "clusters",
+                            "solver = \"amberg\" uses no rotation clusters or examples",
+                        );
+                    }
+                }
+            }
+        }
+        if self.task != FbtTask::Projection && self.dictionary == Some(DictionaryKind::Skeleton) {
+            return e(
+                "dictionary",
+                "the skeleton dictionary is available for task = \"projection\" only",
+            );
+        }
+        Ok(())
     }
 }
 
@@ -523,10 +750,7 @@ pub enum Method {
     /// Rotation-group clustering of the source (no transfer).
     Clustering(Clustering),
     /// FBT ([`super::fbt`]).
-    Fbt {
-        spec: super::fbt::FbtSpec,
-        seed: u64,
-    },
+    Fbt { spec: FbtSpec, seed: u64 },
 }
 
 impl Method {

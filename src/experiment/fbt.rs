@@ -43,12 +43,12 @@ use nalgebra::Vector3;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use serde::{Deserialize, Serialize};
 
 use super::cases::Case;
-use super::config::{fnv1a, MetricsSpec};
+use super::config::{FbtSpec, FbtTask, MetricsSpec};
 use super::dataset::Collection;
 use super::store::{num, secs, CaseResult, Curve, RenderOut};
+use crate::data::fnv1a;
 use crate::data::partial::feature_points;
 use crate::eval::{
     arap_energy, cumulative_curve, curve_grid, error_stats, geodesic_error_curve, vertex_errors,
@@ -58,288 +58,16 @@ use crate::mesh::io::write_ply;
 use crate::mesh::set::adopt_consistent_faces;
 use crate::mesh::Mesh;
 use crate::methods::completion::{CompletionProblem, CompletionSolver, FbtOptions, FeatureOptions};
+use crate::methods::completion::{DictionaryKind, SolverKind};
 use crate::register::{
     apply_rows, best_permutation, build, feature_row_groups, interpolate, metrics, vertex_rows,
-    DictionaryExamples, IterOptions, Schedule,
+    IterOptions, Schedule,
 };
 use crate::skin::dictionary::{Dictionary, SkinningWeights};
 use crate::skin::lbo::lbo_basis;
 use crate::skin::lbs::points_from_matrix;
 use crate::solve::EigenOptions;
 use crate::{Error, Point, Result};
-
-/// What an FBT method measures (see the module docs).
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum FbtTask {
-    Timing,
-    Projection,
-    Scale,
-    Completion,
-    Permutation,
-    Interpolation,
-}
-
-/// Dictionary of the `projection` task and of the main stage.
-#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum DictionarySpec {
-    /// Example-based LBO dictionary (the paper's main choice).
-    #[default]
-    Lbo,
-    /// Example-based dictionary of segment ("skeleton") weights.
-    Skeleton,
-    /// LBO atoms of the reference example only, with as many atoms as the
-    /// example-based LBO dictionary of the same q and m (Table 2, Fig. 8 A).
-    OneExample,
-}
-
-/// Which examples the ARAP energy compares against.
-#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum CompareSpec {
-    /// All q examples (the paper).
-    #[default]
-    All,
-    /// Only the reference example (Fig. 8 B).
-    First,
-}
-
-/// The deformation model of the `completion` task (FBT Fig. 7 baselines).
-#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum SolverSpec {
-    /// Fast blended transformations (the paper).
-    #[default]
-    Fbt,
-    /// Der, Sumner & Popović 2006 on the FBT rotation clusters
-    /// ([`crate::baselines::der`]), in the same completion procedure.
-    Der,
-    /// Amberg et al. 2007 optimal-step nonrigid ICP
-    /// ([`crate::baselines::amberg`]) with the feature circles as landmarks.
-    Amberg,
-}
-
-impl SolverSpec {
-    fn name(self) -> &'static str {
-        match self {
-            SolverSpec::Fbt => "fbt",
-            SolverSpec::Der => "der",
-            SolverSpec::Amberg => "amberg",
-        }
-    }
-}
-
-/// `[methods.fbt]` / `fbt = { .. }` of a `kind = "fbt"` method.
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct FbtSpec {
-    pub task: FbtTask,
-    /// Number of example shapes (default 4).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub q: Option<usize>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub dictionary: Option<DictionarySpec>,
-    /// LBO eigenfunctions (projection: of the dictionary, default 10;
-    /// otherwise of the main stage, default that of `FbtConfig`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub m: Option<usize>,
-    /// Segments of the skeleton weights (default 12).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub segments: Option<usize>,
-    /// Shapes besides the reference the skeleton weights are learnt from
-    /// (default 4).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub rig_poses: Option<usize>,
-    /// Rotation clusters r (default 20).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub clusters: Option<usize>,
-    /// Scale applied to the target (`scale` task, default 1.5).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub scale: Option<f64>,
-    /// Fixed global scale α (Fig. 8 C); default: α is optimised.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub alpha: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub compare: Option<CompareSpec>,
-    /// Feature points (default 8).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub features: Option<usize>,
-    /// Geodesic circles per feature (default 10).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub circles: Option<usize>,
-    /// Largest circle radius relative to √area (default 0.15; 0.1 for
-    /// `permutation` and `interpolation`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub radius: Option<f64>,
-    /// Vertex-position constraints of the `scale` task (default 20).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub vertices: Option<usize>,
-    /// Run NICP after the feature registration (`completion`, default true).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub nicp: Option<bool>,
-    /// NICP iterations (default 10).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub nicp_iterations: Option<usize>,
-    /// Size of the ambiguous feature group (`permutation`, default 4).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub group: Option<usize>,
-    /// Timing repetitions (`timing`, default 5).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub repeats: Option<usize>,
-    /// Correspondence queries per case (Kim et al. curve, default 300).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub queries: Option<usize>,
-    /// Deformation model of the `completion` task: `"fbt"` (default),
-    /// `"der"` or `"amberg"`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub solver: Option<SolverSpec>,
-}
-
-impl FbtSpec {
-    pub fn q(&self) -> usize {
-        self.resolve().q
-    }
-
-    /// The typed options: every unset field takes its default from
-    /// [`FbtOptions::default`] (the task-independent defaults; the full
-    /// target tasks' circle radius is `full_target_radius`).
-    pub fn resolve(&self) -> FbtOptions {
-        let d = FbtOptions::default();
-        FbtOptions {
-            q: self.q.unwrap_or(d.q),
-            m: self.m.unwrap_or(d.m),
-            segments: self.segments.unwrap_or(d.segments),
-            rig_poses: self.rig_poses.unwrap_or(d.rig_poses),
-            clusters: self.clusters.unwrap_or(d.clusters),
-            scale: self.scale.unwrap_or(d.scale),
-            alpha: self.alpha.or(d.alpha),
-            dictionary_examples: match self.dictionary.unwrap_or_default() {
-                DictionarySpec::Lbo | DictionarySpec::Skeleton => d.dictionary_examples,
-                DictionarySpec::OneExample => DictionaryExamples::First,
-            },
-            arap_examples: match self.compare.unwrap_or_default() {
-                CompareSpec::All => d.arap_examples,
-                CompareSpec::First => DictionaryExamples::First,
-            },
-            features: FeatureOptions {
-                features: self.features.unwrap_or(d.features.features),
-                circles: self.circles.unwrap_or(d.features.circles),
-                radius: self.radius.unwrap_or(d.features.radius),
-            },
-            full_target_radius: self.radius.unwrap_or(d.full_target_radius),
-            vertices: self.vertices.unwrap_or(d.vertices),
-            nicp: self.nicp.unwrap_or(d.nicp),
-            nicp_iterations: self.nicp_iterations.unwrap_or(d.nicp_iterations),
-            group: self.group.unwrap_or(d.group),
-            repeats: self.repeats.unwrap_or(d.repeats),
-            queries: self.queries.unwrap_or(d.queries),
-        }
-    }
-
-    /// Checks the options; errors are `(key, message)` relative to the
-    /// method's `fbt` table.
-    pub fn check(&self) -> std::result::Result<(), (String, String)> {
-        let e = |k: &str, m: &str| Err((k.to_string(), m.to_string()));
-        let pos = |k: &str, v: Option<usize>| -> std::result::Result<(), (String, String)> {
-            if v == Some(0) {
-                return Err((k.to_string(), "expected at least 1".into()));
-            }
-            Ok(())
-        };
-        pos("q", self.q)?;
-        pos("m", self.m)?;
-        pos("segments", self.segments)?;
-        pos("rig_poses", self.rig_poses)?;
-        pos("clusters", self.clusters)?;
-        pos("features", self.features)?;
-        pos("circles", self.circles)?;
-        pos("vertices", self.vertices)?;
-        pos("repeats", self.repeats)?;
-        pos("queries", self.queries)?;
-        if let Some(s) = self.scale {
-            if !(s.is_finite() && s > 0.0) {
-                return e("scale", "expected a positive number");
-            }
-        }
-        if let Some(a) = self.alpha {
-            if !(a.is_finite() && a > 0.0) {
-                return e("alpha", "expected a positive number");
-            }
-        }
-        if let Some(r) = self.radius {
-            if !(r.is_finite() && r > 0.0 && r < 1.0) {
-                return e("radius", "expected a number in (0, 1)");
-            }
-        }
-        if let Some(g) = self.group {
-            if !(1..=6).contains(&g) {
-                return e("group", "expected 1..=6 (720 assignments at most)");
-            }
-            if g > self.resolve().features.features {
-                return e("group", "expected at most `features` features");
-            }
-        }
-        if self.task == FbtTask::Projection && self.dictionary == Some(DictionarySpec::Skeleton) {
-            if self.m.is_some() {
-                return e(
-                    "m",
-                    "does not apply to the skeleton dictionary (use `segments`)",
-                );
-            }
-        } else if self.segments.is_some() || self.rig_poses.is_some() {
-            return e(
-                "segments",
-                "segments / rig_poses apply to task = \"projection\" with dictionary = \"skeleton\"",
-            );
-        }
-        match self.solver.unwrap_or_default() {
-            SolverSpec::Fbt => {}
-            other @ (SolverSpec::Der | SolverSpec::Amberg) => {
-                if self.task != FbtTask::Completion {
-                    return e(
-                        "solver",
-                        &format!(
-                            "solver = \"{}\" applies to task = \"completion\" only",
-                            other.name()
-                        ),
-                    );
-                }
-                if self.dictionary.is_some() || self.m.is_some() || self.alpha.is_some() {
-                    return e(
-                        "solver",
-                        &format!(
-                            "dictionary / m / alpha are FBT options; solver = \"{}\" has none",
-                            other.name()
-                        ),
-                    );
-                }
-                if other == SolverSpec::Amberg {
-                    if self.nicp == Some(false) || self.nicp_iterations.is_some() {
-                        return e(
-                            "nicp",
-                            "solver = \"amberg\" is a nonrigid ICP with its own stiffness \
-                             schedule: nicp / nicp_iterations do not apply",
-                        );
-                    }
-                    if self.clusters.is_some() || self.compare.is_some() {
-                        return e(
-                            "clusters",
-                            "solver = \"amberg\" uses no rotation clusters or examples",
-                        );
-                    }
-                }
-            }
-        }
-        if self.task != FbtTask::Projection && self.dictionary == Some(DictionarySpec::Skeleton) {
-            return e(
-                "dictionary",
-                "the skeleton dictionary is available for task = \"projection\" only",
-            );
-        }
-        Ok(())
-    }
-}
 
 fn task_name(t: FbtTask) -> &'static str {
     match t {
@@ -445,9 +173,9 @@ pub fn run(
     out.set(
         "dictionary",
         match spec.dictionary.unwrap_or_default() {
-            DictionarySpec::Lbo => format!("LBO m = {m}"),
-            DictionarySpec::Skeleton => format!("skeleton, {} segments", o.segments),
-            DictionarySpec::OneExample => format!("one example, size of LBO m = {m}"),
+            DictionaryKind::Lbo => format!("LBO m = {m}"),
+            DictionaryKind::Skeleton => format!("skeleton, {} segments", o.segments),
+            DictionaryKind::OneExample => format!("one example, size of LBO m = {m}"),
         },
     );
     let render_dir = render.map(|(r, name)| r.dir.join(name));
@@ -496,16 +224,16 @@ fn projection(
     let reference = &fc.examples[0];
     let m = o.m;
     let dict = match spec.dictionary.unwrap_or_default() {
-        DictionarySpec::Lbo => {
+        DictionaryKind::Lbo => {
             let basis = lbo_basis(reference, m, &EigenOptions::default())?;
             Dictionary::from_meshes(&fc.examples, &SkinningWeights::lbo(&basis))?
         }
-        DictionarySpec::OneExample => {
+        DictionaryKind::OneExample => {
             let m1 = (((1.0 + 3.0 * fc.examples.len() as f64) * m as f64) / 4.0).round() as usize;
             let basis = lbo_basis(reference, m1, &EigenOptions::default())?;
             Dictionary::from_meshes(&fc.examples[..1], &SkinningWeights::lbo(&basis))?
         }
-        DictionarySpec::Skeleton => {
+        DictionaryKind::Skeleton => {
             let k = o.rig_poses;
             if fc.examples.len() - 1 + fc.rest.len() < k {
                 return Err(Error::invalid(format!(
@@ -666,7 +394,7 @@ fn scale(
 fn completion(
     fc: &FbtCase,
     o: &FbtOptions,
-    solver: SolverSpec,
+    solver: SolverKind,
     seed: u64,
     case: &Case,
     metrics_spec: &MetricsSpec,
@@ -683,11 +411,7 @@ fn completion(
     )?;
     out.set("partial_area", num(problem.partial().area_fraction));
     out.set("n_constraints", problem.rows().len().to_string());
-    let solver = match solver {
-        SolverSpec::Fbt => CompletionSolver::fbt(o, seed),
-        SolverSpec::Der => CompletionSolver::der(o, seed),
-        SolverSpec::Amberg => CompletionSolver::amberg(o, seed),
-    };
+    let solver = CompletionSolver::new(solver, o, seed);
     let r = solver.solve(&problem)?;
     let optional = [
         ("seconds_precompute", r.seconds_precompute.map(secs)),

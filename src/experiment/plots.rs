@@ -12,7 +12,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use super::config::{Config, PlotKind, PlotSpec};
-use super::store::{describe, read_manifest};
+use super::manifest::read_manifest;
+use super::store::describe;
 use crate::eval::{vertex_errors, ErrorScale};
 use crate::mesh::io::read_mesh;
 use crate::mesh::Mesh;

@@ -21,11 +21,9 @@ use rayon::prelude::*;
 use super::cases::{generate_cases, Case};
 use super::config::{load_config, LoadedConfig, NamedMethod};
 use super::dataset::Collection;
+use super::manifest::{read_manifest, write_manifest, Invocation, Manifest, Shard};
 use super::record::run_method;
-use super::store::{
-    read_manifest, secs, write_manifest, CaseResult, Invocation, Manifest, RenderOut, Shard, Store,
-    StoredConfig,
-};
+use super::store::{secs, CaseResult, RenderOut, Store, StoredConfig};
 use crate::mesh::io::write_ply;
 use crate::{Error, Result};
 

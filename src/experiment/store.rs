@@ -30,7 +30,6 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use serde::{Deserialize, Serialize};
 
-use super::cases::Case;
 use crate::{Error, Result};
 
 /// Columns of `cases.csv`, in order. Columns whose name starts with
@@ -196,85 +195,6 @@ fn tmp_name(path: &Path) -> PathBuf {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
     path.with_file_name(format!(".{name}.{}.{n}.tmp", std::process::id()))
-}
-
-/// A deterministic slice of the cases: those with `index % count == index_of_shard`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Shard {
-    pub index: usize,
-    pub count: usize,
-}
-
-impl Shard {
-    /// Parses `i/N` (0 ≤ i < N).
-    pub fn parse(s: &str) -> Result<Shard> {
-        let bad = || Error::invalid(format!("--shard expects i/N with 0 ≤ i < N, got {s:?}"));
-        let (i, n) = s.split_once('/').ok_or_else(bad)?;
-        let index: usize = i.trim().parse().map_err(|_| bad())?;
-        let count: usize = n.trim().parse().map_err(|_| bad())?;
-        if count == 0 || index >= count {
-            return Err(bad());
-        }
-        Ok(Shard { index, count })
-    }
-
-    pub fn contains(&self, case: usize) -> bool {
-        case % self.count == self.index
-    }
-}
-
-/// One invocation of `run` on a folder, as recorded in manifest.json.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct Invocation {
-    pub started_unix: u64,
-    pub wall_seconds: f64,
-    pub threads: usize,
-    pub shard: Option<Shard>,
-    pub crate_version: String,
-    pub git_revision: String,
-    /// Case × method results computed by this invocation.
-    pub computed: usize,
-    /// Results found already stored (resumed).
-    pub reused: usize,
-}
-
-/// `manifest.json`.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct Manifest {
-    pub name: String,
-    pub config_file: String,
-    pub config_hash: String,
-    /// The full config (output settings included).
-    pub config: serde_json::Value,
-    pub seed: u64,
-    pub crate_version: String,
-    pub git_revision: String,
-    pub dataset: String,
-    pub n_cases: usize,
-    pub cases: Vec<Case>,
-    pub methods: Vec<String>,
-    /// Shards whose cases this folder holds (`None`: all cases).
-    pub shards: Option<Vec<Shard>>,
-    pub results_stored: usize,
-    pub results_failed: usize,
-    /// Sum of `seconds_total` per method over the stored results.
-    pub method_seconds: Vec<(String, f64)>,
-    pub invocations: Vec<Invocation>,
-}
-
-/// Writes manifest.json (atomically).
-pub fn write_manifest(dir: &Path, m: &Manifest) -> Result<()> {
-    let bytes = serde_json::to_vec_pretty(m)
-        .map_err(|e| Error::invalid(format!("manifest to JSON: {e}")))?;
-    write_file(&dir.join("manifest.json"), &bytes, true)?;
-    Ok(())
-}
-
-/// Reads manifest.json of a results folder.
-pub fn read_manifest(dir: &Path) -> Result<Manifest> {
-    let path = dir.join("manifest.json");
-    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
-    serde_json::from_str(&text).map_err(|e| Error::parse(&path, "JSON", e.to_string()))
 }
 
 /// Where a render case's meshes go (`None`: not a render case).

@@ -556,3 +556,65 @@ impl CompletionSolver {
         }
     }
 }
+
+/// Dictionary of the `projection` task and of the main stage.
+#[derive(Clone, Copy, Debug, Default, serde::Deserialize, serde::Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum DictionaryKind {
+    /// Example-based LBO dictionary (the paper's main choice).
+    #[default]
+    Lbo,
+    /// Example-based dictionary of segment ("skeleton") weights.
+    Skeleton,
+    /// LBO atoms of the reference example only, with as many atoms as the
+    /// example-based LBO dictionary of the same q and m (Table 2, Fig. 8 A).
+    OneExample,
+}
+
+/// Which examples the ARAP energy compares against.
+#[derive(Clone, Copy, Debug, Default, serde::Deserialize, serde::Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum CompareWith {
+    /// All q examples (the paper).
+    #[default]
+    All,
+    /// Only the reference example (Fig. 8 B).
+    First,
+}
+
+/// The deformation model of the `completion` task (FBT Fig. 7 baselines).
+#[derive(Clone, Copy, Debug, Default, serde::Deserialize, serde::Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum SolverKind {
+    /// Fast blended transformations (the paper).
+    #[default]
+    Fbt,
+    /// Der, Sumner & Popović 2006 on the FBT rotation clusters
+    /// ([`crate::baselines::der`]), in the same completion procedure.
+    Der,
+    /// Amberg et al. 2007 optimal-step nonrigid ICP
+    /// ([`crate::baselines::amberg`]) with the feature circles as landmarks.
+    Amberg,
+}
+
+impl SolverKind {
+    /// The name in configs.
+    pub fn name(self) -> &'static str {
+        match self {
+            SolverKind::Fbt => "fbt",
+            SolverKind::Der => "der",
+            SolverKind::Amberg => "amberg",
+        }
+    }
+}
+
+impl CompletionSolver {
+    /// The solver of `kind` with the options `opts` (and `seed`).
+    pub fn new(kind: SolverKind, opts: &FbtOptions, seed: u64) -> Self {
+        match kind {
+            SolverKind::Fbt => CompletionSolver::fbt(opts, seed),
+            SolverKind::Der => CompletionSolver::der(opts, seed),
+            SolverKind::Amberg => CompletionSolver::amberg(opts, seed),
+        }
+    }
+}

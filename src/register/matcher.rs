@@ -10,7 +10,6 @@
 //! normal and — for partial targets — pairs whose target vertex lies on the
 //! target's boundary are rejected.
 
-use super::nicp::NicpOptions;
 use super::spatial::PointIndex;
 use crate::mesh::Mesh;
 use crate::ops::{boundary_vertices, farthest_point_sampling, vertex_normals, FpsMetric};
@@ -119,5 +118,50 @@ impl Matcher {
             pairs,
             mean_distance,
         })
+    }
+}
+
+/// Options of the nonrigid ICP ([`super::nicp::nicp`]) and of its matcher.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NicpOptions {
+    /// ICP iterations.
+    pub iterations: usize,
+    /// Template vertices matched per iteration (0: all).
+    pub samples: usize,
+    /// Rejection distance, relative to √(template area).
+    pub max_distance: f64,
+    /// Rejection angle between normals (degrees).
+    pub max_normal_angle_deg: f64,
+    /// Nearest target vertices examined per sample.
+    pub neighbours: usize,
+    /// Drop pairs whose target vertex is on a boundary edge.
+    pub reject_boundary: bool,
+    /// Weight of the feature rows.
+    pub feature_weight: f64,
+    /// Total weight of the correspondence rows, in units of one feature
+    /// row at weight 1: each of the `a` accepted pairs gets weight
+    /// `correspondence_weight / a`, so the balance does not depend on
+    /// `samples`.
+    pub correspondence_weight: f64,
+    /// E_mn local/scale/global iterations per ICP iteration.
+    pub inner_iterations: usize,
+    /// Seed of the sample placement.
+    pub seed: u64,
+}
+
+impl Default for NicpOptions {
+    fn default() -> Self {
+        NicpOptions {
+            iterations: 10,
+            samples: 1000,
+            max_distance: 0.05,
+            max_normal_angle_deg: 60.0,
+            neighbours: 8,
+            reject_boundary: true,
+            feature_weight: 1.0,
+            correspondence_weight: 2.0,
+            inner_iterations: 5,
+            seed: 0,
+        }
     }
 }

@@ -42,50 +42,7 @@ use super::solver::{ConstraintRows, FbtParams, FbtSystem, IterOptions, MinimalSo
 use crate::mesh::Mesh;
 use crate::{Error, Point, Result};
 
-/// Options of [`nicp`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct NicpOptions {
-    /// ICP iterations.
-    pub iterations: usize,
-    /// Template vertices matched per iteration (0: all).
-    pub samples: usize,
-    /// Rejection distance, relative to √(template area).
-    pub max_distance: f64,
-    /// Rejection angle between normals (degrees).
-    pub max_normal_angle_deg: f64,
-    /// Nearest target vertices examined per sample.
-    pub neighbours: usize,
-    /// Drop pairs whose target vertex is on a boundary edge.
-    pub reject_boundary: bool,
-    /// Weight of the feature rows.
-    pub feature_weight: f64,
-    /// Total weight of the correspondence rows, in units of one feature
-    /// row at weight 1: each of the `a` accepted pairs gets weight
-    /// `correspondence_weight / a`, so the balance does not depend on
-    /// `samples`.
-    pub correspondence_weight: f64,
-    /// E_mn local/scale/global iterations per ICP iteration.
-    pub inner_iterations: usize,
-    /// Seed of the sample placement.
-    pub seed: u64,
-}
-
-impl Default for NicpOptions {
-    fn default() -> Self {
-        NicpOptions {
-            iterations: 10,
-            samples: 1000,
-            max_distance: 0.05,
-            max_normal_angle_deg: 60.0,
-            neighbours: 8,
-            reject_boundary: true,
-            feature_weight: 1.0,
-            correspondence_weight: 2.0,
-            inner_iterations: 5,
-            seed: 0,
-        }
-    }
-}
+pub use super::matcher::NicpOptions;
 
 /// Result of [`nicp`].
 #[derive(Clone, Debug)]
