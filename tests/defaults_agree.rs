@@ -158,7 +158,7 @@ fn config_cli_and_library_defaults_agree() {
     // And the defaults are the documented ones.
     assert_eq!(k.mode, SelectionMode::Fast);
     assert_eq!(k.error_norm, ErrorNorm::MeanDistance);
-    assert_eq!(d.frame, TransferFrame::Direct);
+    assert_eq!(d.frame, TransferFrame::UnitSphere);
     assert_eq!(d.target_weights, TargetWeights::Auto);
 }
 

@@ -66,7 +66,7 @@ fn kp_options() -> KeypointOptions {
 
 fn transfer_options(kp: &KeypointOptions) -> TransferOptions {
     TransferOptions {
-        frame: TransferFrame::Direct,
+        frame: TransferFrame::Raw,
         weights: kp.weights,
         weight_kind: TargetWeights::Fast,
         fast_bounds: kp.fast.bounds,
@@ -216,7 +216,7 @@ fn transferring_to_the_source_reproduces_the_fit() {
     let to = transfer_options(&opts);
     let self_norm =
         unit_sphere_transform(std::slice::from_ref(&c.a), NormalizeReference::Union).unwrap();
-    for frame in [TransferFrame::Direct, TransferFrame::HandleRelative] {
+    for frame in [TransferFrame::Raw, TransferFrame::HandleRelative] {
         let o = TransferOptions {
             frame,
             ..to.clone()

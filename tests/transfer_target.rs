@@ -65,7 +65,7 @@ fn identity_transforms_leave_the_target_unchanged_and_frames_agree_on_b_equal_a(
     let b = &set[1][0];
     let kp = farthest_point_sampling(a, 8, FpsMetric::Euclidean, 3).unwrap();
     let id = vec![vec![Affine::identity(); kp.len()]];
-    let out = transfer(a, &kp, &id, b, &kp, &opts(TransferFrame::Direct)).unwrap();
+    let out = transfer(a, &kp, &id, b, &kp, &opts(TransferFrame::Raw)).unwrap();
     let d = max_dist(&out[0], b);
     eprintln!("identity transforms: max displacement of B = {d:.3e}");
     assert!(d < 1e-9, "{d}");
@@ -75,7 +75,7 @@ fn identity_transforms_leave_the_target_unchanged_and_frames_agree_on_b_equal_a(
         some_transforms(kp.len(), 0.0),
         some_transforms(kp.len(), 1.0),
     ];
-    let d1 = transfer(a, &kp, &ts, a, &kp, &opts(TransferFrame::Direct)).unwrap();
+    let d1 = transfer(a, &kp, &ts, a, &kp, &opts(TransferFrame::Raw)).unwrap();
     let d2 = transfer(a, &kp, &ts, a, &kp, &opts(TransferFrame::HandleRelative)).unwrap();
     for (x, y) in d1.iter().zip(&d2) {
         let d = max_dist(x, y);
@@ -119,7 +119,7 @@ fn refinement_keeps_key_points_and_is_rigid_for_a_rigid_motion() {
     let ts = vec![vec![rigid; kp.len()]];
     let o = TransferOptions {
         refine: true,
-        ..opts(TransferFrame::Direct)
+        ..opts(TransferFrame::Raw)
     };
     let res = transfer_detailed(a, &kp, &ts, b, &kp, &o).unwrap();
     let expect: Vec<Point> = b
@@ -158,7 +158,7 @@ fn bad_inputs_are_errors() {
     let b = &set[1][0];
     let kp = vec![1, 50, 300];
     let ts = vec![some_transforms(3, 0.0)];
-    let o = opts(TransferFrame::Direct);
+    let o = opts(TransferFrame::Raw);
     let msg = |r: deformlab::Result<Vec<Mesh>>| match r {
         Err(Error::InvalidInput(m)) => m,
         other => panic!("expected an invalid-input error, got {other:?}"),

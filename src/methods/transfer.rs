@@ -173,8 +173,15 @@ impl TransferMethod {
                 let fit = fit_keypoints(a, a_def, &picked.keypoints, &options.keypoints)?;
                 let seconds_fit = t.elapsed().as_secs_f64();
                 let found = target.find(a, b, &picked.keypoints)?;
-                // A rotated onto B by the registration: transforms in B's frame.
-                let (a_t, transforms) = match &found.auto {
+                // Raw and handle-relative frames: when the registration
+                // rotated A onto B, the transforms are re-expressed in B's
+                // frame. The unit-sphere frame pre-aligns B to A from the
+                // key point pairs itself.
+                let registration_frame = match options.frame {
+                    TransferFrame::UnitSphere => None,
+                    TransferFrame::Raw | TransferFrame::HandleRelative => found.auto.as_ref(),
+                };
+                let (a_t, transforms) = match registration_frame {
                     Some(r) => (
                         r.source_in_target_frame(a)?,
                         r.target_frame_transforms(&fit.transforms),
@@ -190,7 +197,7 @@ impl TransferMethod {
                     &options.transfer_options(),
                 )?;
                 let mut out = TransferOutcome::new(tr.meshes);
-                out.frames_differ = found.auto.as_ref().map(|r| r.frames_differ());
+                out.frames_differ = registration_frame.map(|r| r.frames_differ());
                 out.timings = TransferTimings {
                     fit: Some(seconds_fit),
                     weights: Some(tr.seconds_weights),

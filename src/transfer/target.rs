@@ -16,10 +16,17 @@
 //!    ([`crate::transfer::keypoints::GreenBasis`]), so that `B` is skinned
 //!    the way `A` was when the transforms were fitted.
 //! 2. **Transforms on B** ([`TransferFrame`]):
-//!    * [`TransferFrame::Direct`] — `T_k` applied as is, as in the paper
-//!      ("we directly apply the transformation matrix T of each key point
-//!      ... to the corresponding point of B"). Right when `A` and `B` live
-//!      in one frame (e.g. FAUST registrations, which are all aligned).
+//!    * [`TransferFrame::UnitSphere`] (default) — the paper's setting: the
+//!      models "scaled consistently to fit into a unit sphere" (Sec. 3.5)
+//!      and the `T_k` applied directly there (Sec. 3.6). A and B are each
+//!      normalised (centroid, largest radius), B is rigidly pre-aligned to
+//!      A from the key point pairs (more than two), and the result is
+//!      mapped back into B's frame ([`FrameMap`]): `T_k^B = M⁻¹ T_k M`.
+//!      Equivariant under rigid motions and uniform scaling of `B`.
+//!    * [`TransferFrame::Raw`] (ablation) — `T_k` applied as is in B's own
+//!      coordinates. Right only when `A` and `B` already share a frame;
+//!      FAUST subjects stand 0.35–0.38 apart, and a raw transfer across
+//!      them stretches limbs.
 //!    * [`TransferFrame::HandleRelative`] — `T_k^B = [L_k | t′_k]` with the
 //!      linear part `L_k` of `T_k` and `t′_k` chosen so that the handle moves
 //!      by the same displacement as on the source:
@@ -82,9 +89,20 @@ use crate::{Error, Point, Result};
 )]
 #[serde(rename_all = "snake_case")]
 pub enum TransferFrame {
-    /// `T_k` applied to `B` as is (A and B in one frame; the paper).
+    /// A and B share one frame (BDT Sec. 3.5–3.6: models "scaled
+    /// consistently to fit into a unit sphere"): each is normalised into the
+    /// unit sphere (centroid, largest distance from it), B is rigidly
+    /// pre-aligned to A from the key point pairs when there are more than
+    /// two, the `T_k` act there and the result is mapped back into B's frame
+    /// ([`FrameMap`]). Equivariant: moving, rotating or uniformly scaling B
+    /// moves, rotates or scales B′ the same way.
     #[default]
-    Direct,
+    UnitSphere,
+    /// Ablation: `T_k` applied to `B` in B's own coordinates, as fitted in
+    /// A's (right only when A and B already share a frame).
+    #[serde(alias = "direct")]
+    #[value(alias = "direct")]
+    Raw,
     /// Same linear part, same handle displacement: `T_k^B b_k = b_k + T_k a_k − a_k`.
     HandleRelative,
 }
@@ -93,9 +111,92 @@ impl TransferFrame {
     /// Name used on the command line and in logs.
     pub fn name(self) -> &'static str {
         match self {
-            TransferFrame::Direct => "direct",
+            TransferFrame::UnitSphere => "unit-sphere",
+            TransferFrame::Raw => "raw",
             TransferFrame::HandleRelative => "handle-relative",
         }
+    }
+}
+
+/// The similarity `y ↦ scale · R y + translation` that takes B into A's
+/// frame for [`TransferFrame::UnitSphere`]: `N_A⁻¹ ∘ (rigid pre-alignment) ∘
+/// N_B`, with `N_X(x) = (x − c_X) / r_X` (`c_X` the vertex centroid, `r_X`
+/// the largest distance of a vertex from it) and the rigid pre-alignment
+/// the least-squares rotation and translation of the normalised target key
+/// points onto the normalised source key points (Kabsch) when there are
+/// more than two pairs, else none. Transforms act on B as
+/// `T_k^B = M⁻¹ ∘ T_k ∘ M`; since LBS weights sum to one, this is the same
+/// as deforming `M(B)` with the `T_k` and mapping the result back.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameMap {
+    pub scale: f64,
+    pub rotation: nalgebra::Matrix3<f64>,
+    pub translation: nalgebra::Vector3<f64>,
+}
+
+/// Centroid and largest distance from it.
+fn centre_radius(mesh: &Mesh) -> Result<(nalgebra::Vector3<f64>, f64)> {
+    let v = mesh.vertices();
+    let c = v
+        .iter()
+        .fold(nalgebra::Vector3::zeros(), |s, p| s + p.coords)
+        / v.len().max(1) as f64;
+    let r = v
+        .iter()
+        .map(|p| (p.coords - c).norm())
+        .fold(0.0f64, f64::max);
+    if !(r > 0.0 && r.is_finite()) {
+        return Err(Error::invalid(
+            "cannot normalise into the unit sphere: the vertices coincide or are not finite",
+        ));
+    }
+    Ok((c, r))
+}
+
+impl FrameMap {
+    /// The map of B into A's frame (see the type documentation).
+    pub fn unit_sphere(
+        source: &Mesh,
+        source_keypoints: &[usize],
+        target: &Mesh,
+        target_keypoints: &[usize],
+    ) -> Result<FrameMap> {
+        let (ca, ra) = centre_radius(source)?;
+        let (cb, rb) = centre_radius(target)?;
+        let (rotation, t) = if source_keypoints.len() > 2 {
+            let na: Vec<Point> = source_keypoints
+                .iter()
+                .map(|&k| Point::from((source.vertices()[k].coords - ca) / ra))
+                .collect();
+            let nb: Vec<Point> = target_keypoints
+                .iter()
+                .map(|&k| Point::from((target.vertices()[k].coords - cb) / rb))
+                .collect();
+            let m = crate::eval::procrustes(&nb, &na)?;
+            (m.rotation, m.translation)
+        } else {
+            (nalgebra::Matrix3::identity(), nalgebra::Vector3::zeros())
+        };
+        let scale = ra / rb;
+        Ok(FrameMap {
+            scale,
+            rotation,
+            translation: ca + ra * t - scale * (rotation * cb),
+        })
+    }
+
+    /// `M⁻¹ ∘ T ∘ M` for an affine `T = [L | u]`: linear part `Rᵀ L R`,
+    /// translation `Rᵀ (L τ + u − τ) / s`.
+    pub fn conjugate(&self, t: &Affine) -> Affine {
+        let l = t.fixed_view::<3, 3>(0, 0).into_owned();
+        let u = t.column(3).into_owned();
+        let rt = self.rotation.transpose();
+        let lin = rt * l * self.rotation;
+        let shift = rt * (l * self.translation + u - self.translation) / self.scale;
+        let mut out = *t;
+        out.fixed_view_mut::<3, 3>(0, 0).copy_from(&lin);
+        out.set_column(3, &shift);
+        out
     }
 }
 
@@ -172,7 +273,7 @@ pub struct TransferOptions {
 impl Default for TransferOptions {
     fn default() -> Self {
         TransferOptions {
-            frame: TransferFrame::Direct,
+            frame: TransferFrame::UnitSphere,
             weights: BbwOptions::default(),
             weight_kind: TargetWeights::Bounded,
             fast_bounds: FastBounds::ClampNormalize,
@@ -270,19 +371,20 @@ pub fn transfer_detailed(
     let seconds_weights = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    let on_target: Vec<Vec<Affine>> = transforms
-        .iter()
-        .map(|tj| {
-            place_transforms(
-                source,
-                source_keypoints,
-                tj,
-                target,
-                target_keypoints,
-                opts.frame,
-            )
-        })
-        .collect();
+    let on_target: Vec<Vec<Affine>> = match opts.frame {
+        TransferFrame::UnitSphere => {
+            let m = FrameMap::unit_sphere(source, source_keypoints, target, target_keypoints)?;
+            transforms
+                .iter()
+                .map(|tj| tj.iter().map(|t| m.conjugate(t)).collect())
+                .collect()
+        }
+        TransferFrame::Raw => transforms.to_vec(),
+        TransferFrame::HandleRelative => transforms
+            .iter()
+            .map(|tj| handle_relative_all(source, source_keypoints, tj, target, target_keypoints))
+            .collect(),
+    };
     let k = LbsMatrix::new(target.vertices(), &weights)?;
     let lbs = on_target
         .iter()
@@ -349,26 +451,23 @@ pub fn transfer_detailed(
 }
 
 /// The transforms of one deformed source as they act on the target.
-fn place_transforms(
+/// [`handle_relative`] for every key point.
+fn handle_relative_all(
     source: &Mesh,
     source_keypoints: &[usize],
     transforms: &[Affine],
     target: &Mesh,
     target_keypoints: &[usize],
-    frame: TransferFrame,
 ) -> Vec<Affine> {
-    match frame {
-        TransferFrame::Direct => transforms.to_vec(),
-        TransferFrame::HandleRelative => transforms
-            .iter()
-            .enumerate()
-            .map(|(k, tk)| {
-                let a = source.vertices()[source_keypoints[k]];
-                let b = target.vertices()[target_keypoints[k]];
-                handle_relative(tk, &a, &b)
-            })
-            .collect(),
-    }
+    transforms
+        .iter()
+        .enumerate()
+        .map(|(k, tk)| {
+            let a = source.vertices()[source_keypoints[k]];
+            let b = target.vertices()[target_keypoints[k]];
+            handle_relative(tk, &a, &b)
+        })
+        .collect()
 }
 
 /// `[L | t′]` with `t′ = b + T a − a − L b`, so that `T^B b = b + (T a − a)`.
