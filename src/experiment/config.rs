@@ -303,7 +303,7 @@ macro_rules! pipeline_struct {
             /// ARAP weight λ (default 0.5).
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub lambda: Option<f64>,
-            /// Stage-2 passes (default 10).
+            /// Stage-2 passes at most (default: until a pass changes nothing, Algorithm 1).
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub max_swap_passes: Option<usize>,
             /// Fast mode: k-means subsample (default 1000).

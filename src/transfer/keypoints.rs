@@ -247,7 +247,7 @@ impl Default for KeypointOptions {
             groups: GroupFeatures::AUGMENTED,
             n_groups: None,
             arap: ArapOptions::default(),
-            max_swap_passes: 10,
+            max_swap_passes: usize::MAX,
             error_norm: ErrorNorm::MeanDistance,
             fast: FastOptions::default(),
             candidate_pool: Vec::new(),
