@@ -109,6 +109,7 @@ fn log_chart_with_markers_and_many_series() {
         series,
         log_y: true,
         markers: true,
+        floor: None,
         ..Default::default()
     };
     let stem = dir.path().join("keys");

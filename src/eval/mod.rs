@@ -1,8 +1,8 @@
 //! Evaluation metrics: per-vertex errors against a ground truth, summary
 //! statistics, cumulative error curves (BDT Fig. 14), geodesic
 //! correspondence error curves (Kim et al. 2011 protocol), the ARAP energy of
-//! a result against its rest shape, distortion statistics and clustering
-//! scores.
+//! a result against its rest shape, distortion statistics (per-edge strain,
+//! percentiles, fractions within a bound) and clustering scores.
 //!
 //! # Units
 //!
@@ -123,7 +123,8 @@ pub fn procrustes(moving: &[Point], fixed: &[Point]) -> Result<RigidMotion> {
 }
 
 /// [`vertex_errors`] after rigidly aligning `result` onto `truth`
-/// ([`procrustes`]).
+/// ([`procrustes`]): the best **rigid** motion (rotation + translation; no
+/// scaling, no reflection), not a similarity.
 pub fn aligned_vertex_errors(result: &[Point], truth: &[Point]) -> Result<Vec<f64>> {
     let t = procrustes(result, truth)?;
     let moved: Vec<Point> = result.iter().map(|p| t.apply(p)).collect();
@@ -202,6 +203,73 @@ pub fn cumulative_curve(errors: &[f64], bounds: &[f64]) -> Vec<f64> {
         .iter()
         .map(|&b| sorted.partition_point(|&e| e <= b) as f64 / n)
         .collect()
+}
+
+/// Fraction of `errors` that are `≤ bound` (0 for an empty list): one point
+/// of [`cumulative_curve`], e.g. the share of vertices within 0.02 √area.
+pub fn fraction_within(errors: &[f64], bound: f64) -> f64 {
+    if errors.is_empty() {
+        return 0.0;
+    }
+    errors.iter().filter(|&&e| e <= bound).count() as f64 / errors.len() as f64
+}
+
+/// The `p`-th percentile (`0 ≤ p ≤ 100`) of `values`, by linear
+/// interpolation between the order statistics (the "linear" rule of NumPy
+/// and R type 7): rank `h = (n − 1) p / 100`, value `x_⌊h⌋ + (h − ⌊h⌋)
+/// (x_⌊h⌋+1 − x_⌊h⌋)` of the sorted values. `p = 0` is the minimum, `p = 100`
+/// the maximum. Errors on an empty list, a non-finite value or `p` outside
+/// `[0, 100]`.
+pub fn percentile(values: &[f64], p: f64) -> Result<f64> {
+    if values.is_empty() {
+        return Err(Error::invalid("percentile of an empty list"));
+    }
+    if !(0.0..=100.0).contains(&p) {
+        return Err(Error::invalid(format!("percentile {p} outside [0, 100]")));
+    }
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        return Err(Error::invalid(format!(
+            "percentile: value {i} is {}",
+            values[i]
+        )));
+    }
+    let mut s = values.to_vec();
+    s.sort_by(f64::total_cmp);
+    let h = (s.len() - 1) as f64 * p / 100.0;
+    let lo = h.floor() as usize;
+    let hi = (lo + 1).min(s.len() - 1);
+    Ok(s[lo] + (h - lo as f64) * (s[hi] - s[lo]))
+}
+
+/// Per-edge strain `|ℓ′_e / ℓ_e − 1|` of `deformed` against `rest` (same
+/// faces), one value per undirected edge of `rest` in
+/// [`crate::ops::edges`] order; edges of zero length in `rest` are left out.
+/// 0 for a rigid motion, `|s − 1|` for a uniform scaling by `s`. Errors on a
+/// vertex count mismatch or a non-finite deformed edge length.
+pub fn edge_strains(rest: &Mesh, deformed: &[Point]) -> Result<Vec<f64>> {
+    if deformed.len() != rest.n_vertices() {
+        return Err(Error::invalid(format!(
+            "edge strain of {} vertices against a rest shape with {}",
+            deformed.len(),
+            rest.n_vertices()
+        )));
+    }
+    let p = rest.vertices();
+    let mut out = Vec::new();
+    for (i, j) in crate::ops::edges(rest) {
+        let l0 = (p[j] - p[i]).norm();
+        if l0 <= 0.0 {
+            continue;
+        }
+        let l1 = (deformed[j] - deformed[i]).norm();
+        if !l1.is_finite() {
+            return Err(Error::invalid(format!(
+                "edge strain: edge ({i}, {j}) has a non-finite deformed length"
+            )));
+        }
+        out.push((l1 / l0 - 1.0).abs());
+    }
+    Ok(out)
 }
 
 /// Geodesic correspondence errors (Kim et al. 2011 protocol): for each query
@@ -624,6 +692,52 @@ mod tests {
         assert!(r.iter().all(|x| (x - 2.0 * k.ln()).abs() < 1e-12));
         let r = distortion(&s, &rigid(s.vertices())).unwrap();
         assert!(r.area_log_max_abs < 1e-12 && r.edge_log_max_abs < 1e-12);
+    }
+
+    #[test]
+    fn edge_strain_of_scaling_and_rigid_motion() {
+        let s = icosphere(2);
+        let n_edges = crate::ops::edges(&s).len();
+        for k in [0.5f64, 1.25, 2.0] {
+            let scaled: Vec<Point> = s
+                .vertices()
+                .iter()
+                .map(|p| Point::from(p.coords * k))
+                .collect();
+            let e = edge_strains(&s, &scaled).unwrap();
+            assert_eq!(e.len(), n_edges);
+            assert!(e.iter().all(|x| (x - (k - 1.0).abs()).abs() < 1e-12), "{k}");
+            let p99 = percentile(&e, 99.0).unwrap();
+            assert!((p99 - (k - 1.0).abs()).abs() < 1e-12);
+        }
+        let e = edge_strains(&s, &rigid(s.vertices())).unwrap();
+        assert!(e.iter().all(|&x| x < 1e-12));
+        assert!(percentile(&e, 99.0).unwrap() < 1e-12);
+        assert!(edge_strains(&s, &s.vertices()[1..]).is_err());
+    }
+
+    #[test]
+    fn percentile_and_fractions_of_known_values() {
+        let v = [4.0, 1.0, 3.0, 2.0, 5.0];
+        assert_eq!(percentile(&v, 0.0).unwrap(), 1.0);
+        assert_eq!(percentile(&v, 100.0).unwrap(), 5.0);
+        assert_eq!(percentile(&v, 50.0).unwrap(), 3.0);
+        // h = 4 · 0.99 = 3.96: 4 + 0.96 · (5 − 4).
+        assert!((percentile(&v, 99.0).unwrap() - 4.96).abs() < 1e-12);
+        assert_eq!(percentile(&[7.0], 99.0).unwrap(), 7.0);
+        assert!(percentile(&[], 50.0).is_err());
+        assert!(percentile(&v, 101.0).is_err());
+        assert!(percentile(&[1.0, f64::NAN], 50.0).is_err());
+        let e = [0.0, 0.01, 0.02, 0.03, 0.05, 0.06, 0.1, 0.2];
+        assert_eq!(fraction_within(&e, 0.02), 3.0 / 8.0);
+        assert_eq!(fraction_within(&e, 0.05), 5.0 / 8.0);
+        assert_eq!(fraction_within(&[], 0.05), 0.0);
+        // One point of the cumulative curve.
+        let c = cumulative_curve(&e, &[0.02, 0.05]);
+        assert_eq!(
+            c,
+            vec![fraction_within(&e, 0.02), fraction_within(&e, 0.05)]
+        );
     }
 
     #[test]

@@ -16,14 +16,29 @@
 //! the extra pose `rest` (e.g. `reference_pose = "rest"`); "every pose"
 //! lists never include it. The true bone of every vertex (`set.labels`) is
 //! the dataset's segmentation ([`Collection::labels`]).
+//!
+//! **Consistent winding.** Every mesh is served with its subject's
+//! consistently wound face list when it has the same vertex triples in
+//! another winding (TOSCA `centaur3` reverses 376 faces of the centaur
+//! class): the subject's face list is that of its first pose (listed order,
+//! then the extra poses) whose winding is consistent (no edge used twice in
+//! one direction, [`DefectReport`]), and a mesh whose faces are those
+//! triples with some of them reversed gets that face list (same vertices).
+//! This happens once, where meshes are served, for every method kind. Each
+//! repair is printed as a warning naming the file and the number of flipped
+//! faces, and kept in [`Collection::repairs`] (the runner records them in
+//! `manifest.json`). Meshes with other triples (another connectivity) and
+//! subjects without a consistently wound pose are served unchanged.
 
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use super::config::LoadedConfig;
 use crate::data::folders::{FaustFolder, Label, Manifest, ToscaFolder};
 use crate::mesh::io::read_mesh;
-use crate::mesh::Mesh;
+use crate::mesh::set::{compare_faces, FaceMatch};
+use crate::mesh::validate::DefectReport;
+use crate::mesh::{Face, Mesh};
 use crate::{Error, Result};
 
 /// The last component of a path (for captions: no local directories).
@@ -38,6 +53,9 @@ fn folder_name(p: &Path) -> String {
 pub struct PoseEntry {
     pub id: String,
     path: Option<PathBuf>,
+    /// The mesh as generated (in-memory datasets).
+    memory: Option<Arc<Mesh>>,
+    /// The mesh as served (read, winding repaired), once it was asked for.
     mesh: Mutex<Option<Arc<Mesh>>>,
 }
 
@@ -46,7 +64,8 @@ impl PoseEntry {
         PoseEntry {
             id,
             path: None,
-            mesh: Mutex::new(Some(Arc::new(mesh))),
+            memory: Some(Arc::new(mesh)),
+            mesh: Mutex::new(None),
         }
     }
 
@@ -54,32 +73,77 @@ impl PoseEntry {
         PoseEntry {
             id,
             path: Some(path),
+            memory: None,
             mesh: Mutex::new(None),
         }
     }
 
-    /// The mesh (read from its file on first use).
-    pub fn mesh(&self) -> Result<Arc<Mesh>> {
-        let mut slot = self
-            .mesh
-            .lock()
-            .map_err(|_| Error::invalid("mesh cache poisoned by a failed thread"))?;
-        if let Some(m) = slot.as_ref() {
+    /// The mesh as stored (generated, or read from its file), no repair.
+    fn raw(&self) -> Result<Arc<Mesh>> {
+        if let Some(m) = &self.memory {
             return Ok(m.clone());
         }
         let path = self
             .path
             .as_ref()
             .ok_or_else(|| Error::invalid(format!("pose {} has no mesh", self.id)))?;
-        let m = Arc::new(read_mesh(path)?);
-        *slot = Some(m.clone());
-        Ok(m)
+        Ok(Arc::new(read_mesh(path)?))
+    }
+
+    fn lock(&self) -> Result<std::sync::MutexGuard<'_, Option<Arc<Mesh>>>> {
+        self.mesh
+            .lock()
+            .map_err(|_| Error::invalid("mesh cache poisoned by a failed thread"))
     }
 
     /// The file the mesh comes from (`None`: generated in memory).
     pub fn path(&self) -> Option<&Path> {
         self.path.as_deref()
     }
+
+    /// The file name, or `subject/pose` for a mesh generated in memory.
+    fn label(&self, subject: &str) -> String {
+        match &self.path {
+            Some(p) => folder_name(p),
+            None => format!("{subject}/{}", self.id),
+        }
+    }
+}
+
+/// A mesh served with its subject's consistently wound face list (see the
+/// module documentation).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct WindingRepair {
+    pub subject: String,
+    pub pose: String,
+    /// File name of the repaired mesh (`subject/pose` in memory).
+    pub file: String,
+    /// The pose whose face list was adopted, and its file name.
+    pub from_pose: String,
+    pub from_file: String,
+    /// Faces whose winding was reversed against the adopted face list.
+    pub flipped: usize,
+    pub faces: usize,
+}
+
+impl std::fmt::Display for WindingRepair {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}: {} of {} faces wound against subject {}'s consistent face list (from {}); \
+             flipped at load",
+            self.file, self.flipped, self.faces, self.subject, self.from_file
+        )
+    }
+}
+
+/// The consistently wound face list of a subject.
+#[derive(Debug)]
+struct SubjectFaces {
+    pose: String,
+    file: String,
+    n_vertices: usize,
+    faces: Vec<Face>,
 }
 
 /// One subject and its poses (in the dataset's order).
@@ -89,9 +153,22 @@ pub struct Subject {
     pub poses: Vec<PoseEntry>,
     /// Poses reachable by name only (the synthetic `rest`).
     pub extra: Vec<PoseEntry>,
+    /// The subject's consistently wound face list (found on first use).
+    faces: OnceLock<Option<SubjectFaces>>,
+    repairs: Mutex<Vec<WindingRepair>>,
 }
 
 impl Subject {
+    fn new(id: String, poses: Vec<PoseEntry>, extra: Vec<PoseEntry>) -> Self {
+        Subject {
+            id,
+            poses,
+            extra,
+            faces: OnceLock::new(),
+            repairs: Mutex::new(Vec::new()),
+        }
+    }
+
     /// The pose `id` (listed or extra).
     pub fn pose(&self, id: &str) -> Option<&PoseEntry> {
         self.poses.iter().chain(&self.extra).find(|p| p.id == id)
@@ -101,6 +178,96 @@ impl Subject {
     pub fn has(&self, id: &str) -> bool {
         self.pose(id).is_some()
     }
+
+    /// The first consistently wound pose's face list. Poses that fail to
+    /// load are skipped here (they fail when asked for); a consistent pose
+    /// is kept as served (its faces are the subject's).
+    fn consistent_faces(&self) -> Option<&SubjectFaces> {
+        self.faces
+            .get_or_init(|| {
+                for e in self.poses.iter().chain(&self.extra) {
+                    let Ok(mut slot) = e.lock() else { continue };
+                    let m = match slot.as_ref() {
+                        Some(m) => m.clone(),
+                        None => match e.raw() {
+                            Ok(m) => m,
+                            Err(_) => continue,
+                        },
+                    };
+                    if DefectReport::of_mesh(&m).inconsistent_edges.is_empty() {
+                        *slot = Some(m.clone());
+                        return Some(SubjectFaces {
+                            pose: e.id.clone(),
+                            file: e.label(&self.id),
+                            n_vertices: m.n_vertices(),
+                            faces: m.faces().to_vec(),
+                        });
+                    }
+                }
+                None
+            })
+            .as_ref()
+    }
+
+    /// The mesh of pose `p`, with the subject's consistent face list when it
+    /// differs from it only by the winding of some faces.
+    pub fn mesh(&self, p: &str) -> Result<Arc<Mesh>> {
+        let e = self
+            .pose(p)
+            .ok_or_else(|| Error::invalid(format!("subject {} has no pose {p}", self.id)))?;
+        if let Some(m) = e.lock()?.as_ref() {
+            return Ok(m.clone());
+        }
+        // Found before locking the entry: finding it may serve this entry.
+        let faces = self.consistent_faces();
+        let mut slot = e.lock()?;
+        if let Some(m) = slot.as_ref() {
+            return Ok(m.clone());
+        }
+        let mut m = e.raw()?;
+        if let Some(f) = faces {
+            if let Some(flipped) = reversed_faces(&m, f) {
+                m = Arc::new(m.with_faces(f.faces.clone())?);
+                let r = WindingRepair {
+                    subject: self.id.clone(),
+                    pose: e.id.clone(),
+                    file: e.label(&self.id),
+                    from_pose: f.pose.clone(),
+                    from_file: f.file.clone(),
+                    flipped,
+                    faces: f.faces.len(),
+                };
+                eprintln!("warning: {r}");
+                self.repairs
+                    .lock()
+                    .map_err(|_| Error::invalid("repair log poisoned by a failed thread"))?
+                    .push(r);
+            }
+        }
+        *slot = Some(m.clone());
+        Ok(m)
+    }
+}
+
+/// The number of faces of `m` that are faces of `f` in the opposite winding,
+/// when `m` has `f`'s vertex triples face by face and at least one is
+/// reversed; `None` otherwise (nothing to repair, or another connectivity).
+fn reversed_faces(m: &Mesh, f: &SubjectFaces) -> Option<usize> {
+    if m.faces() == f.faces.as_slice()
+        || m.n_vertices() != f.n_vertices
+        || m.n_faces() != f.faces.len()
+    {
+        return None;
+    }
+    let mut flipped = 0;
+    for (&a, &b) in m.faces().iter().zip(&f.faces) {
+        match compare_faces(a, b) {
+            FaceMatch::Same => {}
+            FaceMatch::Reversed => flipped += 1,
+            FaceMatch::Different => return None,
+        }
+    }
+    (flipped > 0).then_some(flipped)
 }
 
 /// The meshes of an experiment.
@@ -138,14 +305,16 @@ impl Collection {
             .iter()
             .zip(&set.rest)
             .enumerate()
-            .map(|(s, (poses, rest))| Subject {
-                id: s.to_string(),
-                poses: poses
-                    .iter()
-                    .enumerate()
-                    .map(|(p, m)| PoseEntry::memory(p.to_string(), m.clone()))
-                    .collect(),
-                extra: vec![PoseEntry::memory("rest".to_string(), rest.clone())],
+            .map(|(s, (poses, rest))| {
+                Subject::new(
+                    s.to_string(),
+                    poses
+                        .iter()
+                        .enumerate()
+                        .map(|(p, m)| PoseEntry::memory(p.to_string(), m.clone()))
+                        .collect(),
+                    vec![PoseEntry::memory("rest".to_string(), rest.clone())],
+                )
             })
             .collect();
         // The remeshed subject 0 (issue 8: cross-topology transfer).
@@ -160,14 +329,14 @@ impl Collection {
                 " + subject \"remesh\" (subject 0 remeshed, {} vertices)",
                 r.mesh.n_vertices()
             );
-            subjects.push(Subject {
-                id: "remesh".to_string(),
+            subjects.push(Subject::new(
+                "remesh".to_string(),
                 poses,
-                extra: vec![PoseEntry::memory(
+                vec![PoseEntry::memory(
                     "rest".to_string(),
                     r.transfer(&set.rest[0])?,
                 )],
-            });
+            ));
         }
         Ok(Collection {
             kind: "synthetic",
@@ -189,11 +358,7 @@ impl Collection {
         for e in &f.entries {
             let sid = e.subject.to_string();
             if subjects.last().is_none_or(|s| s.id != sid) {
-                subjects.push(Subject {
-                    id: sid,
-                    poses: Vec::new(),
-                    extra: Vec::new(),
-                });
+                subjects.push(Subject::new(sid, Vec::new(), Vec::new()));
             }
             if let Some(s) = subjects.last_mut() {
                 s.poses
@@ -234,14 +399,14 @@ impl Collection {
             if classes.is_some_and(|cs| !cs.contains(class)) {
                 continue;
             }
-            subjects.push(Subject {
-                id: class.clone(),
-                poses: entries
+            subjects.push(Subject::new(
+                class.clone(),
+                entries
                     .iter()
                     .map(|e| PoseEntry::file(e.index.to_string(), e.path.clone()))
                     .collect(),
-                extra: Vec::new(),
-            });
+                Vec::new(),
+            ));
         }
         let n: usize = subjects.iter().map(|s| s.poses.len()).sum();
         Ok(Collection {
@@ -279,11 +444,7 @@ impl Collection {
             let idx = match subjects.iter().position(|s| s.id == sid) {
                 Some(i) => i,
                 None => {
-                    subjects.push(Subject {
-                        id: sid.clone(),
-                        poses: Vec::new(),
-                        extra: Vec::new(),
-                    });
+                    subjects.push(Subject::new(sid.clone(), Vec::new(), Vec::new()));
                     subjects.len() - 1
                 }
             };
@@ -316,11 +477,23 @@ impl Collection {
         self.subjects.iter().find(|s| s.id == id)
     }
 
-    /// The mesh of subject `s` in pose `p`.
+    /// The mesh of subject `s` in pose `p`, winding repaired (see the
+    /// module documentation).
     pub fn mesh(&self, s: &str, p: &str) -> Result<Arc<Mesh>> {
         self.subject(s)
-            .and_then(|sub| sub.pose(p))
             .ok_or_else(|| Error::invalid(format!("subject {s} has no pose {p}")))?
-            .mesh()
+            .mesh(p)
+    }
+
+    /// The winding repairs made so far, subject by subject, in pose order.
+    pub fn repairs(&self) -> Vec<WindingRepair> {
+        let mut out = Vec::new();
+        for s in &self.subjects {
+            let mut r = s.repairs.lock().map(|r| r.clone()).unwrap_or_default();
+            let order = |p: &str| s.poses.iter().chain(&s.extra).position(|e| e.id == p);
+            r.sort_by_key(|x| order(&x.pose));
+            out.extend(r);
+        }
+        out
     }
 }

@@ -16,9 +16,9 @@
 //! target) by a permutation seeded with the method seed and the case id, so
 //! the example sets of methods that differ only in `q` are nested (the
 //! q = 2 examples are among the q = 4 ones). Shapes of one class must share
-//! their vertex count (face lists are unified by
-//! [`adopt_consistent_faces`]); the truth correspondence is vertex `i` ↔
-//! vertex `i`.
+//! their connectivity (the dataset serves every shape of a class with the
+//! class's consistently wound face list, see [`super::dataset`]); the truth
+//! correspondence is vertex `i` ↔ vertex `i`.
 //!
 //! **Tasks** (columns of `cases.csv`, curves of `curves.csv`):
 //!
@@ -55,7 +55,7 @@ use crate::eval::{
     ErrorScale,
 };
 use crate::mesh::io::write_ply;
-use crate::mesh::set::adopt_consistent_faces;
+use crate::mesh::set::ConnectivityReport;
 use crate::mesh::Mesh;
 use crate::methods::completion::{CompletionProblem, CompletionSolver, FbtOptions, FeatureOptions};
 use crate::methods::completion::{DictionaryKind, SolverKind};
@@ -130,7 +130,14 @@ fn load_case(col: &Collection, case: &Case, q: usize, seed: u64) -> Result<FbtCa
     for id in ids.iter().chain([target_id]).chain(&rest_ids) {
         all.push((*col.mesh(&case.source, id)?).clone());
     }
-    let (_, mut all) = adopt_consistent_faces(&all)?;
+    if all.iter().any(|m| m.faces() != all[0].faces()) {
+        return Err(Error::invalid(format!(
+            "FBT needs one face list per class; the shapes of class {} differ \
+             beyond winding:\n{}",
+            case.source,
+            ConnectivityReport::of(&all)
+        )));
+    }
     let rest = all.split_off(q + 1);
     let target = all.pop().ok_or_else(|| Error::invalid("no target"))?;
     Ok(FbtCase {

@@ -47,6 +47,10 @@ pub struct Invocation {
     pub computed: usize,
     /// Results found already stored (resumed).
     pub reused: usize,
+    /// Meshes whose winding the dataset repaired at load during this
+    /// invocation ([`super::dataset::WindingRepair`], one line each).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub repairs: Vec<String>,
 }
 
 /// `manifest.json`.

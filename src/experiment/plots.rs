@@ -7,6 +7,17 @@
 //! config order. Without `[[outputs.plots]]` the defaults are: cumulative
 //! error curves and error bars when a method transfers, cluster scores when
 //! one clusters, and mesh panels.
+//!
+//! **Cumulative plots** (`kind = "cumulative"`) write one file per curve
+//! present in `curves.csv`: `<file>.png` (errors in unit-sphere units),
+//! `<file>_area.png` (√area(B) units), `<file>_area_rigid.png` (√area(B)
+//! units after the best rigid alignment of each result onto its truth, curve
+//! `cumulative_area_rigid`), `<file>_distortion.png` and
+//! `<file>_correspondence.png` (`<file>` defaults to `cumulative`). The
+//! group of the first `kind = "identity"` method (the target left unchanged)
+//! is always drawn, even when the spec's `methods` list leaves it out, as a
+//! dashed grey line labelled "identity (B unchanged)": the floor every
+//! method must beat.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -110,6 +121,9 @@ struct Ctx {
     curves: Vec<Row>,
     /// Groups in config order, with their methods.
     groups: Vec<(String, Vec<String>)>,
+    /// The group of the first `kind = "identity"` method (B left unchanged):
+    /// the floor of every transfer evaluation.
+    identity_group: Option<String>,
     warnings: Vec<String>,
 }
 
@@ -153,6 +167,11 @@ pub fn make_plots(dir: &Path) -> Result<Vec<String>> {
             None => groups.push((g, vec![m.name.clone()])),
         }
     }
+    let identity_group = config
+        .methods
+        .iter()
+        .find(|m| m.kind == super::config::MethodKind::Identity)
+        .map(|m| m.group.clone().unwrap_or_else(|| m.name.clone()));
     let n_cases = rows
         .iter()
         .filter_map(|r| r.get("case"))
@@ -173,6 +192,7 @@ pub fn make_plots(dir: &Path) -> Result<Vec<String>> {
         rows,
         curves,
         groups,
+        identity_group,
         warnings: Vec::new(),
     };
     let mut specs = ctx.config.outputs.plots.clone();
@@ -192,6 +212,17 @@ pub fn make_plots(dir: &Path) -> Result<Vec<String>> {
                 (!keep.is_empty()).then(|| (g.clone(), keep))
             })
             .collect();
+        // Cumulative curves always show the identity floor, even when the
+        // spec lists its methods without it.
+        if spec.kind == PlotKind::Cumulative {
+            if let Some(ig) = &ctx.identity_group {
+                if !ctx.groups.iter().any(|(g, _)| g == ig) {
+                    if let Some(e) = all_groups.iter().find(|(g, _)| g == ig) {
+                        ctx.groups.push(e.clone());
+                    }
+                }
+            }
+        }
         let r = match spec.kind {
             PlotKind::Cumulative => cumulative(&ctx, spec),
             PlotKind::Bars => bars(&ctx, spec),
@@ -241,6 +272,15 @@ fn default_plots(c: &Config) -> Vec<PlotSpec> {
     v
 }
 
+/// Legend entry of the identity floor in cumulative plots.
+const IDENTITY_LABEL: &str = "identity (B unchanged)";
+
+/// Cumulative curves of every method group (see the module documentation):
+/// `cumulative` (unit-sphere units), `cumulative_area` (√area units),
+/// `cumulative_area_rigid` (√area units, after the best rigid alignment of
+/// each result onto its truth), `cumulative_distortion` and
+/// `cumulative_correspondence`, each written when some result has its curve.
+/// The identity group is drawn as a dashed grey floor.
 fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
     for (curve, x_label, y_label, suffix) in [
         (
@@ -256,6 +296,12 @@ fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             "_area",
         ),
         (
+            "cumulative_area_rigid",
+            "error bound after best rigid alignment (√area(B) units)",
+            "vertices within the bound (%)",
+            "_area_rigid",
+        ),
+        (
             "distortion_area",
             "bound on |log(face area / area on B)|",
             "faces within the bound (%)",
@@ -269,6 +315,7 @@ fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         ),
     ] {
         let mut series = Vec::new();
+        let mut floor = None;
         let mut curve_cases = std::collections::BTreeSet::new();
         for (g, methods) in &ctx.groups {
             // Mean over the case × method curves of the group.
@@ -311,8 +358,16 @@ fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                 })
                 .collect();
             pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let is_floor = ctx.identity_group.as_ref() == Some(g);
+            if is_floor {
+                floor = Some(series.len());
+            }
             series.push(Series {
-                label: g.clone(),
+                label: if is_floor {
+                    IDENTITY_LABEL.to_string()
+                } else {
+                    g.clone()
+                },
                 x: pts.iter().map(|p| p.0).collect(),
                 y: pts.iter().map(|p| p.1).collect(),
             });
@@ -350,6 +405,7 @@ fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             y_range: Some((0.0, 100.0)),
             log_y: false,
             markers: false,
+            floor,
         };
         let stem = ctx.stem(spec, "cumulative");
         let stem = stem.with_file_name(format!(
@@ -511,6 +567,7 @@ fn trace(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         series,
         log_y: spec.log_y.unwrap_or(false),
         markers: true,
+        floor: None,
         ..Default::default()
     };
     save_line_chart(&chart, &ctx.stem(spec, "trace"))
@@ -590,6 +647,7 @@ fn line(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         series,
         log_y: spec.log_y.unwrap_or(false),
         markers: true,
+        floor: None,
         ..Default::default()
     };
     save_line_chart(&chart, &ctx.stem(spec, &format!("line_{x}")))

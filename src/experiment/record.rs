@@ -10,6 +10,21 @@
 //!   target reference `B` and in √area(B) units ([`crate::eval`]); after a
 //!   rigid Procrustes alignment of each `B′_j` onto its truth when
 //!   `[metrics] procrustes = true` (column `procrustes`).
+//! * `err_*_unit_rigid` / `err_*_area_rigid` (always, whatever
+//!   `[metrics] procrustes` says): the same statistics after the best
+//!   **rigid** alignment (rotation + translation, no scaling, no reflection;
+//!   [`crate::eval::aligned_vertex_errors`], Kabsch) of each `B′_j` onto its
+//!   truth; curve `cumulative_area_rigid` (grid of `cumulative_area`). With
+//!   `procrustes = true` they equal the `err_*` columns.
+//! * `within_002_area` / `within_005_area`: fraction of the pooled vertices
+//!   whose raw (unaligned, whatever `procrustes` says) error is `≤ 0.02` /
+//!   `≤ 0.05` √area(B); `within_002_area_rigid` / `within_005_area_rigid`:
+//!   the same after the rigid alignment.
+//! * `edge_strain_p99`: 99th percentile ([`crate::eval::percentile`], linear
+//!   interpolation) of the edge strains `|ℓ′/ℓ − 1|` over every edge of `B`
+//!   and every pose (`ℓ` edge length on `B`, `ℓ′` on `B′_j`,
+//!   [`crate::eval::edge_strains`]); needs no truth, so every transfer row
+//!   has it (`identity`: 0).
 //! * `fit_error_unit`: the same mean distance between `D_S(A)` (the fit on
 //!   the source) and `A′_j`, in unit-sphere units of `A`.
 //! * `selection_error`: the selection's own error (its `error_norm`).
@@ -48,7 +63,8 @@ use super::dataset::Collection;
 use super::store::{num, save_mesh, secs, CaseResult, Curve, RenderOut};
 use crate::eval::{
     aligned_vertex_errors, arap_energy, cluster_rigidity_rms, cumulative_curve, curve_grid,
-    distortion, error_stats, face_log_area_ratios, vertex_errors, ErrorScale,
+    distortion, edge_strains, error_stats, face_log_area_ratios, fraction_within, percentile,
+    vertex_errors, ErrorScale,
 };
 use crate::mesh::Mesh;
 use crate::methods::{
@@ -289,6 +305,13 @@ fn record_target(
     Ok(())
 }
 
+/// Bounds of the `within_*` columns, in √area(B) units, with their column
+/// suffixes.
+const WITHIN_BOUNDS: [(f64, &str); 2] = [(0.02, "002"), (0.05, "005")];
+
+/// Percentile of the per-edge strains reported as `edge_strain_p99`.
+const EDGE_STRAIN_PERCENTILE: f64 = 99.0;
+
 /// Metrics of the transferred meshes `results` (one per pose) of the target
 /// reference `b` against the ground truths (see the module documentation).
 pub(super) fn measure(
@@ -302,23 +325,24 @@ pub(super) fn measure(
     let sb = ErrorScale::of_reference(b)?;
     let procrustes = metrics.procrustes();
     out.set("procrustes", procrustes.to_string());
-    let mut pooled: Vec<f64> = Vec::new();
+    // Raw and rigidly aligned errors, pooled over the poses with a truth;
+    // the `err_*` columns use the one `[metrics] procrustes` chooses.
+    let mut raw: Vec<f64> = Vec::new();
+    let mut rigid: Vec<f64> = Vec::new();
+    let mut strains: Vec<f64> = Vec::new();
     let (mut e_arap, mut e_arap_truth, mut d_area, mut d_edge) = (0.0, 0.0, 0.0, 0.0);
     let mut n_truth = 0;
     let mut log_area: Vec<f64> = Vec::new();
     for (res, truth) in results.iter().zip(truth) {
         e_arap += arap_energy(b, res.vertices())?.1;
         log_area.extend(face_log_area_ratios(b, res.vertices())?);
+        strains.extend(edge_strains(b, res.vertices())?);
         let d = distortion(b, res.vertices())?;
         d_area += d.area_log_mean_abs;
         d_edge += d.edge_log_rms;
         if let Some(truth) = truth {
-            let e = if procrustes {
-                aligned_vertex_errors(res.vertices(), truth.vertices())?
-            } else {
-                vertex_errors(res.vertices(), truth.vertices())?
-            };
-            pooled.extend(e);
+            raw.extend(vertex_errors(res.vertices(), truth.vertices())?);
+            rigid.extend(aligned_vertex_errors(res.vertices(), truth.vertices())?);
             e_arap_truth += arap_energy(b, truth.vertices())?.1;
             n_truth += 1;
         }
@@ -327,6 +351,12 @@ pub(super) fn measure(
     out.set("arap_energy", num(e_arap / np));
     out.set("distortion_area", num(d_area / np));
     out.set("distortion_edge", num(d_edge / np));
+    if !strains.is_empty() {
+        out.set(
+            "edge_strain_p99",
+            num(percentile(&strains, EDGE_STRAIN_PERCENTILE)?),
+        );
+    }
     // Distortion curve: fraction of faces whose |log area ratio| to B is
     // within a bound (grid 0..1, i.e. area ratios within [1/e, e]).
     let grid = curve_grid(1.0, metrics.curve_points())?;
@@ -337,7 +367,8 @@ pub(super) fn measure(
     ));
     if n_truth > 0 {
         out.set("arap_energy_truth", num(e_arap_truth / n_truth as f64));
-        let s = error_stats(&pooled)?;
+        let pooled = if procrustes { &rigid } else { &raw };
+        let s = error_stats(pooled)?;
         let su = s.scaled(sb.unit_sphere);
         let sq = s.scaled(sb.sqrt_area);
         out.set("err_mean_unit", num(su.mean));
@@ -346,6 +377,15 @@ pub(super) fn measure(
         out.set("err_mean_area", num(sq.mean));
         out.set("err_rms_area", num(sq.rms));
         out.set("err_max_area", num(sq.max));
+        let s = error_stats(&rigid)?;
+        let su = s.scaled(sb.unit_sphere);
+        let sq = s.scaled(sb.sqrt_area);
+        out.set("err_mean_unit_rigid", num(su.mean));
+        out.set("err_rms_unit_rigid", num(su.rms));
+        out.set("err_max_unit_rigid", num(su.max));
+        out.set("err_mean_area_rigid", num(sq.mean));
+        out.set("err_rms_area_rigid", num(sq.rms));
+        out.set("err_max_area_rigid", num(sq.max));
         let grid = curve_grid(metrics.curve_max(), metrics.curve_points())?;
         let unit: Vec<f64> = pooled.iter().map(|e| e * sb.unit_sphere).collect();
         out.curves.push(Curve::new(
@@ -359,6 +399,23 @@ pub(super) fn measure(
             "cumulative_area",
             &grid,
             &cumulative_curve(&area, &grid),
+        ));
+        let raw_area: Vec<f64> = raw.iter().map(|e| e * sb.sqrt_area).collect();
+        let rigid_area: Vec<f64> = rigid.iter().map(|e| e * sb.sqrt_area).collect();
+        for (bound, suffix) in WITHIN_BOUNDS {
+            out.set(
+                &format!("within_{suffix}_area"),
+                num(fraction_within(&raw_area, bound)),
+            );
+            out.set(
+                &format!("within_{suffix}_area_rigid"),
+                num(fraction_within(&rigid_area, bound)),
+            );
+        }
+        out.curves.push(Curve::new(
+            "cumulative_area_rigid",
+            &grid,
+            &cumulative_curve(&rigid_area, &grid),
         ));
     }
     out.set("seconds_metrics", secs(t.elapsed().as_secs_f64()));

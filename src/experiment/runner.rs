@@ -348,6 +348,7 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
         git_revision: git.clone(),
         computed,
         reused,
+        repairs: col.repairs().iter().map(|r| r.to_string()).collect(),
     });
     let shards = match opts.shard {
         None => None,

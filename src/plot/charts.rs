@@ -19,7 +19,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use super::axis::{format_log_tick, format_tick, log_axis_is_scientific, Axis, Scale};
 use super::font::{self, ensure_font, GlyphBackend};
 use super::output::{with_suffix, write_bytes_atomic, write_png_atomic, Image};
-use super::style::{series_style, Marker, SeriesStyle, MAX_PLAIN_SERIES};
+use super::style::{series_style, Marker, SeriesStyle, FLOOR_STYLE, MAX_PLAIN_SERIES};
 use super::{BarChart, LineChart};
 use crate::{Error, Result};
 
@@ -600,17 +600,24 @@ fn draw_line_chart<DB: DrawingBackend>(
     root.fill(&WHITE).map_err(de)?;
     let header = draw_header(root, &c.title, c.caption.as_deref(), m)?;
     let (_, body) = root.split_vertically(header);
-    let n = c.series.len();
+    let floor = c.floor.filter(|&k| k < c.series.len());
+    let n = c.series.len() - usize::from(floor.is_some());
     let force_markers = n > MAX_PLAIN_SERIES;
+    // The floor series is styled apart; the others as if it were absent.
+    let style_of = |i: usize| match floor {
+        Some(k) if k == i => FLOOR_STYLE,
+        Some(k) if i > k => series_style(i - 1, n),
+        _ => series_style(i, n),
+    };
     let entries: Vec<LegendEntry> = c
         .series
         .iter()
         .enumerate()
         .map(|(i, s)| LegendEntry {
             label: &s.label,
-            style: series_style(i, n),
+            style: style_of(i),
             swatch: Swatch::Line {
-                markers: c.markers || force_markers,
+                markers: Some(i) != floor && (c.markers || force_markers),
             },
         })
         .collect();
@@ -668,8 +675,14 @@ fn draw_line_chart<DB: DrawingBackend>(
     };
     let mut obstacles: Vec<Rect> = Vec::new();
     let mr = m.px(7.0);
-    for (i, s) in c.series.iter().enumerate() {
-        let style = series_style(i, n);
+    // The floor first: beneath the other series.
+    let order: Vec<usize> = floor
+        .into_iter()
+        .chain((0..c.series.len()).filter(|&i| Some(i) != floor))
+        .collect();
+    for i in order {
+        let s = &c.series[i];
+        let style = style_of(i);
         let pts: Vec<(f64, f64)> = s.x.iter().copied().zip(s.y.iter().copied()).collect();
         for piece in clip_polyline(&pts, &p.x, &p.y) {
             let px: Vec<(f64, f64)> = piece.iter().map(|&q| map(q)).collect();
@@ -697,7 +710,7 @@ fn draw_line_chart<DB: DrawingBackend>(
                 obstacles.push((q.0 - mr, q.1 - mr, q.0 + mr, q.1 + mr));
             }
         }
-        if c.markers || force_markers || s.x.len() == 1 {
+        if Some(i) != floor && (c.markers || force_markers || s.x.len() == 1) {
             for q in &pts {
                 let fx = p.x.fraction(q.0);
                 let fy = p.y.fraction(q.1);

@@ -88,6 +88,7 @@ pub fn demo(dir: &Path) -> Result<Vec<PathBuf>> {
         ],
         log_y: true,
         markers: true,
+        floor: None,
         ..Default::default()
     };
     let stem = dir.join("line_keypoints");

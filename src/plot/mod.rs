@@ -41,7 +41,7 @@ pub use demo::demo;
 pub use figure::{render_figure, save_figure_with, DEFAULT_PANEL_SIZE};
 pub use output::Image;
 pub use render::{render_mesh, RenderOptions, Shading, View};
-pub use style::{colormap, keypoint_color, series_style, ColorMap, SeriesStyle};
+pub use style::{colormap, keypoint_color, series_style, ColorMap, SeriesStyle, FLOOR_STYLE};
 
 /// One line of a [`LineChart`].
 #[derive(Clone, Debug, PartialEq)]
@@ -75,6 +75,11 @@ pub struct LineChart {
     pub log_y: bool,
     /// Draw a marker at every point (e.g. error vs key points).
     pub markers: bool,
+    /// Index of a series drawn as a reference floor (e.g. the `identity`
+    /// method of a transfer evaluation): dashed grey, without markers,
+    /// beneath the other series, which keep the styles they would have
+    /// without it ([`FLOOR_STYLE`]).
+    pub floor: Option<usize>,
 }
 
 /// A grouped bar chart: one group per category, one bar per series.

@@ -170,6 +170,14 @@ pub struct SeriesStyle {
     pub marker: Marker,
 }
 
+/// The style of a reference floor series of a line chart
+/// ([`super::LineChart::floor`]): dashed mid grey.
+pub const FLOOR_STYLE: SeriesStyle = SeriesStyle {
+    color: [128, 128, 128],
+    dash: Some((10.0, 6.0)),
+    marker: Marker::Cross,
+};
+
 /// The style of series `index` among `count` series: distinct colours; with
 /// more than [`MAX_PLAIN_SERIES`] series also distinct dash patterns, so
 /// that (colour, dash) pairs are unique up to 24 series; marker shapes cycle
