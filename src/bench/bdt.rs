@@ -186,7 +186,7 @@ pub fn run(quick: bool, full_exact: bool) -> Result<String> {
         verify_top: vt,
         reps,
     };
-    let sweep: Vec<usize> = if quick { vec![vt] } else { vec![1, vt, 2 * vt] };
+    let sweep: Vec<usize> = if quick { vec![vt] } else { vec![1, 3, 6] };
     let one = [vt];
     let syn1 = synthetic(1)?;
     for m in [1, 3] {
