@@ -338,3 +338,72 @@ mod stage_two {
         }
     }
 }
+
+#[test]
+fn fast_mode_fits_and_transfers_with_bounded_weights() {
+    // Fast mode screens with cheap weights, but its returned fit is the
+    // exact (bounded biharmonic) fit of its key points: the one
+    // `fit_keypoints` computes in exact mode.
+    let (a, d) = data();
+    let fast = KeypointOptions {
+        n_candidates: 10,
+        max_keypoints: 3,
+        max_swap_passes: 1,
+        ..small_opts(SelectionMode::Fast)
+    };
+    let sel = select_keypoints(&a, &d, &fast).unwrap();
+    let exact = KeypointOptions {
+        mode: SelectionMode::Exact,
+        ..fast.clone()
+    };
+    let fit = fit_keypoints(&a, &d, &sel.keypoints, &exact).unwrap();
+    assert_eq!(sel.error, fit.error);
+    assert_eq!(sel.transforms, fit.transforms);
+    // Every traced error is an exact one (the last is the final fit's).
+    assert_eq!(sel.trace.last().unwrap().error, fit.error);
+    // fit_keypoints does not depend on the mode.
+    let fit_fast = fit_keypoints(&a, &d, &sel.keypoints, &fast).unwrap();
+    assert_eq!(fit_fast.transforms, fit.transforms);
+    assert_eq!(fit_fast.weights, fit.weights);
+    let bbw = Biharmonic::new(&a)
+        .unwrap()
+        .weights(&sel.keypoints, &exact.weights)
+        .unwrap();
+    // (bounded weights of A itself, not of its unit-sphere copy: equal up
+    // to the solver tolerance)
+    let diff = (&fit.weights - &bbw).amax();
+    assert!(diff < 1e-5, "fit weights differ from BBW by {diff}");
+    // Ranking needs at least one exact evaluation per step.
+    let mut no_verify = fast.clone();
+    no_verify.fast.verify_top = 0;
+    assert!(select_keypoints(&a, &d, &no_verify).is_err());
+
+    // Target weights `auto` after a fast selection: bounded biharmonic
+    // weights on B (in [0, 1], rows summing to one).
+    use deformlab::transfer::{transfer_detailed, TargetWeights, TransferOptions};
+    let kind = TargetWeights::Auto.resolve(SelectionMode::Fast);
+    assert_eq!(kind, TargetWeights::Bounded);
+    let set = FaustStyle {
+        subjects: 2,
+        poses: 1,
+        resolution: 1,
+        ..Default::default()
+    }
+    .generate()
+    .unwrap();
+    let b = set.rest[1].clone();
+    let to = TransferOptions {
+        weights: fast.weights,
+        weight_kind: kind,
+        ..TransferOptions::default()
+    };
+    let out =
+        transfer_detailed(&a, &sel.keypoints, &sel.transforms, &b, &sel.keypoints, &to).unwrap();
+    let w = &out.weights;
+    assert_eq!(w.ncols(), sel.keypoints.len());
+    for i in 0..w.nrows() {
+        let s: f64 = w.row(i).sum();
+        assert!((s - 1.0).abs() <= 1e-9, "row {i} sums to {s}");
+        assert!(w.row(i).iter().all(|&x| (-1e-9..=1.0 + 1e-9).contains(&x)));
+    }
+}

@@ -68,7 +68,7 @@ fn transfer_options(kp: &KeypointOptions) -> TransferOptions {
     TransferOptions {
         frame: TransferFrame::Raw,
         weights: kp.weights,
-        weight_kind: TargetWeights::Fast,
+        weight_kind: TargetWeights::Auto.resolve(kp.mode),
         fast_bounds: kp.fast.bounds,
         ..TransferOptions::default()
     }

@@ -227,13 +227,17 @@ pub enum TargetWeights {
 }
 
 impl TargetWeights {
-    /// `Auto` made concrete for transforms fitted in `mode`.
+    /// `Auto` made concrete for transforms fitted in `mode`: bounded
+    /// biharmonic weights in both modes, because both fit the key points'
+    /// transforms on `A` with bounded weights
+    /// ([`crate::transfer::keypoints::fit_keypoints`]; fast mode only
+    /// screens candidates with the cheap weights), so `B` is skinned the way
+    /// `A` was when the transforms were fitted.
     pub fn resolve(self, mode: crate::transfer::SelectionMode) -> TargetWeights {
         use crate::transfer::SelectionMode;
         match self {
             TargetWeights::Auto => match mode {
-                SelectionMode::Exact => TargetWeights::Bounded,
-                SelectionMode::Fast => TargetWeights::Fast,
+                SelectionMode::Exact | SelectionMode::Fast => TargetWeights::Bounded,
             },
             TargetWeights::Bounded => TargetWeights::Bounded,
             TargetWeights::Fast => TargetWeights::Fast,
