@@ -67,8 +67,8 @@ pub enum Command {
         biharmonic (the same for L M⁻¹ L + εM), eigen (20 LBO eigenpairs), nalgebra\n\
         (nalgebra-sparse's Cholesky, for comparison) — sizes 7.2k, 50k, 200k vertices;\n\
         bbw (weights for 10 handles on FAUST tr_reg_001, all modes, and LBS of 12 handles);\n\
-        keypoints (fast key point selection, n_c = 100, m = 1 and 3, exact-mode trials and\n\
-        extrapolation; --exact-full also runs the exact selections: hours);\n\
+        keypoints (fast vs exact key point selection, m = 1 and 3, by the bounded-weight fit\n\
+        error; exact at a smaller n_c unless --exact-full: hours at n_c = 100);\n\
         baselines (Sumner DT on cat → lion: correspondence, factorisation, per-pose solve;\n\
         Sumner, oracle and cage DT on the synthetic Fig. 14 cases).\n\
         bbw and keypoints read ../shared/data (or DEFORMLAB_SHARED_DATA) and fall back to\n\

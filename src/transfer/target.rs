@@ -10,11 +10,11 @@
 //!
 //! 1. **Weights.** Bounded biharmonic weights `W_B` (n_B × n_k) on `B` with
 //!    the target key points as point handles (column `k` ↔ `b_k`), computed
-//!    once for all `j` ([`TransferOptions::weights`]). Alternatively
-//!    ([`TargetWeights::Fast`]) the clamped, renormalised unbounded
-//!    biharmonic weights that key point selection's fast mode fits with
-//!    ([`crate::transfer::keypoints::GreenBasis`]), so that `B` is skinned
-//!    the way `A` was when the transforms were fitted.
+//!    once for all `j` ([`TransferOptions::weights`]): the weights the
+//!    transforms were fitted with on `A` in either selection mode. As an
+//!    ablation ([`TargetWeights::Fast`]), the clamped, renormalised
+//!    unbounded biharmonic weights that fast mode screens candidates with
+//!    ([`crate::transfer::keypoints::GreenBasis`]).
 //! 2. **Transforms on B** ([`TransferFrame`]):
 //!    * [`TransferFrame::UnitSphere`] (default) — the paper's setting: the
 //!      models "scaled consistently to fit into a unit sphere" (Sec. 3.5)
@@ -215,7 +215,7 @@ impl FrameMap {
 #[serde(rename_all = "snake_case")]
 pub enum TargetWeights {
     /// The weights the transforms were fitted with on the source: bounded
-    /// for an exact selection, fast for a fast one ([`TargetWeights::resolve`]).
+    /// biharmonic weights in both selection modes ([`TargetWeights::resolve`]).
     #[default]
     Auto,
     /// Bounded biharmonic weights with [`TransferOptions::weights`] (BDT Eq. 1).
