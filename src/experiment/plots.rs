@@ -667,7 +667,12 @@ fn timing(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         .groups
         .iter()
         .map(|(g, _)| g)
-        .filter(|g| group_stats(ctx, g, "seconds_total").is_some())
+        // Methods with none of the timed stages (the `identity` floor) have
+        // nothing to show on these axes.
+        .filter(|g| {
+            group_stats(ctx, g, "seconds_total").is_some()
+                && cols.iter().any(|(c, _)| group_stats(ctx, g, c).is_some())
+        })
         .collect();
     if groups.is_empty() {
         return Err(Error::invalid("no timings in cases.csv"));
