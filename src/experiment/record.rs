@@ -312,6 +312,25 @@ const WITHIN_BOUNDS: [(f64, &str); 2] = [(0.02, "002"), (0.05, "005")];
 /// Percentile of the per-edge strains reported as `edge_strain_p99`.
 const EDGE_STRAIN_PERCENTILE: f64 = 99.0;
 
+/// `err_{mean,rms,max}_{unit,area}{suffix}` of the pooled vertex errors.
+fn record_errors(
+    errors: &[f64],
+    sb: &ErrorScale,
+    suffix: &str,
+    out: &mut CaseResult,
+) -> Result<()> {
+    let s = error_stats(errors)?;
+    for (unit, st) in [
+        ("unit", s.scaled(sb.unit_sphere)),
+        ("area", s.scaled(sb.sqrt_area)),
+    ] {
+        out.set(&format!("err_mean_{unit}{suffix}"), num(st.mean));
+        out.set(&format!("err_rms_{unit}{suffix}"), num(st.rms));
+        out.set(&format!("err_max_{unit}{suffix}"), num(st.max));
+    }
+    Ok(())
+}
+
 /// Metrics of the transferred meshes `results` (one per pose) of the target
 /// reference `b` against the ground truths (see the module documentation).
 pub(super) fn measure(
@@ -368,24 +387,8 @@ pub(super) fn measure(
     if n_truth > 0 {
         out.set("arap_energy_truth", num(e_arap_truth / n_truth as f64));
         let pooled = if procrustes { &rigid } else { &raw };
-        let s = error_stats(pooled)?;
-        let su = s.scaled(sb.unit_sphere);
-        let sq = s.scaled(sb.sqrt_area);
-        out.set("err_mean_unit", num(su.mean));
-        out.set("err_rms_unit", num(su.rms));
-        out.set("err_max_unit", num(su.max));
-        out.set("err_mean_area", num(sq.mean));
-        out.set("err_rms_area", num(sq.rms));
-        out.set("err_max_area", num(sq.max));
-        let s = error_stats(&rigid)?;
-        let su = s.scaled(sb.unit_sphere);
-        let sq = s.scaled(sb.sqrt_area);
-        out.set("err_mean_unit_rigid", num(su.mean));
-        out.set("err_rms_unit_rigid", num(su.rms));
-        out.set("err_max_unit_rigid", num(su.max));
-        out.set("err_mean_area_rigid", num(sq.mean));
-        out.set("err_rms_area_rigid", num(sq.rms));
-        out.set("err_max_area_rigid", num(sq.max));
+        record_errors(pooled, &sb, "", out)?;
+        record_errors(&rigid, &sb, "_rigid", out)?;
         let grid = curve_grid(metrics.curve_max(), metrics.curve_points())?;
         let unit: Vec<f64> = pooled.iter().map(|e| e * sb.unit_sphere).collect();
         out.curves.push(Curve::new(
