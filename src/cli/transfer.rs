@@ -184,6 +184,14 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
         None => Vec::new(),
     };
     let d = BdtOptions::default();
+    let options = BdtOptions {
+        keypoints: opts.clone(),
+        frame: a.frame.unwrap_or(d.frame),
+        target_weights: a.target_weights.unwrap_or(d.target_weights),
+        refine: a.refine || d.refine,
+    };
+    let (frame, refine) = (options.frame, options.refine);
+    let target_weights = options.transfer_options().weight_kind;
     let method = TransferMethod::Bdt {
         keypoints,
         target: TargetPoints {
@@ -192,12 +200,7 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
             seed: opts.seed,
             ..TargetPoints::default()
         },
-        options: BdtOptions {
-            keypoints: opts.clone(),
-            frame: a.frame.unwrap_or(d.frame),
-            target_weights: a.target_weights.unwrap_or(d.target_weights),
-            refine: a.refine || d.refine,
-        },
+        options,
     };
     let res = method
         .run(&TransferCase {
@@ -242,19 +245,6 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
         );
     }
     let fit_error = fit.error;
-    let (frame, refine, target_weights) = match &method {
-        TransferMethod::Bdt { options, .. } => (
-            options.frame,
-            options.refine,
-            options.transfer_options().weight_kind,
-        ),
-        TransferMethod::Identity
-        | TransferMethod::Sumner { .. }
-        | TransferMethod::SumnerOracle
-        | TransferMethod::Cage { .. } => {
-            return Err(Error::invalid("deformlab transfer runs BDT"));
-        }
-    };
     let seconds_weights = res.timings.weights.unwrap_or(0.0);
     let seconds_lbs = res.timings.lbs.unwrap_or(0.0);
     let seconds_refine = res.timings.refine.unwrap_or(0.0);
