@@ -47,12 +47,16 @@ pub struct SelectArgs {
     /// Error compared with ε [default: mean].
     #[arg(long, value_enum)]
     pub error_norm: Option<ErrorNorm>,
-    /// Bounded biharmonic weights of the exact-mode trials and of the fit
-    /// (per-handle: each handle bounded separately, rows normalised, as
-    /// libigl's bbw; coupled: BDT Eq. 1 with partition of unity, slower)
-    /// [default: per-handle].
+    /// Bounded biharmonic weights of the final fit (and of the target in
+    /// `transfer`): coupled = BDT Eq. 1 (bounds and partition of unity in
+    /// one problem); per-handle = each handle bounded separately, rows
+    /// normalised, as libigl's bbw [default: coupled].
     #[arg(long, value_enum)]
     pub weights: Option<WeightMode>,
+    /// Bounded biharmonic weights of the selection's trial sets (exact
+    /// mode's trials, fast mode's verified trials) [default: per-handle].
+    #[arg(long, value_enum)]
+    pub selection_weights: Option<WeightMode>,
 }
 
 impl SelectArgs {
@@ -70,6 +74,10 @@ impl SelectArgs {
             weights: match self.weights {
                 Some(m) => BbwOptions::with_mode(m),
                 None => d.weights,
+            },
+            selection_weights: match self.selection_weights {
+                Some(m) => BbwOptions::with_mode(m),
+                None => d.selection_weights,
             },
             ..d
         }
@@ -113,6 +121,7 @@ impl SelectArgs {
             "mode": opts.mode,
             "error_norm": format!("{:?}", opts.error_norm),
             "weights": format!("{:?}", opts.weights.mode),
+            "selection_weights": format!("{:?}", opts.selection_weights.mode),
         })
     }
 }

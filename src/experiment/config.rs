@@ -742,6 +742,10 @@ pub struct PlotSpec {
 }
 
 /// A resolved method: a library value ([`crate::methods`]).
+// One value per configured method, built once per run: the size of the
+// largest variant (the BDT options) costs nothing, and boxing it would make
+// every match on a method's options go through a `Box`.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq)]
 pub enum Method {
     /// A transfer to a target, measured against its ground truth (BDT,

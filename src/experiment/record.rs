@@ -24,7 +24,14 @@
 //!   interpolation) of the edge strains `|ℓ′/ℓ − 1|` over every edge of `B`
 //!   and every pose (`ℓ` edge length on `B`, `ℓ′` on `B′_j`,
 //!   [`crate::eval::edge_strains`]); needs no truth, so every transfer row
-//!   has it (`identity`: 0).
+//!   has it (`identity`: 0). `edge_strain_p99_source`: the same statistic
+//!   of the source's own deformation (`A′_j` against `A`), the strain a
+//!   transfer that reproduces the source's deformation carries (FAUST
+//!   registrations in other poses reach 0.6–0.9 there: stretched armpits
+//!   and crotch); `edge_strain_p99_fit`: of the method's own fit on the
+//!   source (`D_S(A)` against `A`, BDT rows): strain the transfer inherits
+//!   from too few key points rather than adds; `edge_strain_p99_truth`: of
+//!   the ground truths against `B` (poses with a truth).
 //! * `fit_error_unit`: the same mean distance between `D_S(A)` (the fit on
 //!   the source) and `A′_j`, in unit-sphere units of `A`.
 //! * `selection_error`: the selection's own error (its `error_norm`).
@@ -171,10 +178,18 @@ fn transfer(
     if let Some(fit) = &o.fit {
         let sa = ErrorScale::of_reference(a)?;
         let mut fit_err = 0.0;
+        let mut fit_strains = Vec::new();
         for (pos, d) in fit.positions.iter().zip(&a_def) {
             fit_err += error_stats(&vertex_errors(pos, d.vertices())?)?.mean * sa.unit_sphere;
+            fit_strains.extend(edge_strains(a, pos)?);
         }
         out.set("fit_error_unit", num(fit_err / a_def.len() as f64));
+        if !fit_strains.is_empty() {
+            out.set(
+                "edge_strain_p99_fit",
+                num(percentile(&fit_strains, EDGE_STRAIN_PERCENTILE)?),
+            );
+        }
     }
     if let Some(errs) = &o.cage_fit_errors {
         let sa = ErrorScale::of_reference(a)?;
@@ -188,6 +203,16 @@ fn transfer(
         );
     }
 
+    let mut source_strains = Vec::new();
+    for d in &a_def {
+        source_strains.extend(edge_strains(a, d.vertices())?);
+    }
+    if !source_strains.is_empty() {
+        out.set(
+            "edge_strain_p99_source",
+            num(percentile(&source_strains, EDGE_STRAIN_PERCENTILE)?),
+        );
+    }
     measure(b, &o.meshes, &cm.truth, metrics, out)?;
 
     if let Some(r) = render {
@@ -349,6 +374,7 @@ pub(super) fn measure(
     let mut raw: Vec<f64> = Vec::new();
     let mut rigid: Vec<f64> = Vec::new();
     let mut strains: Vec<f64> = Vec::new();
+    let mut truth_strains: Vec<f64> = Vec::new();
     let (mut e_arap, mut e_arap_truth, mut d_area, mut d_edge) = (0.0, 0.0, 0.0, 0.0);
     let mut n_truth = 0;
     let mut log_area: Vec<f64> = Vec::new();
@@ -363,6 +389,7 @@ pub(super) fn measure(
             raw.extend(vertex_errors(res.vertices(), truth.vertices())?);
             rigid.extend(aligned_vertex_errors(res.vertices(), truth.vertices())?);
             e_arap_truth += arap_energy(b, truth.vertices())?.1;
+            truth_strains.extend(edge_strains(b, truth.vertices())?);
             n_truth += 1;
         }
     }
@@ -386,6 +413,12 @@ pub(super) fn measure(
     ));
     if n_truth > 0 {
         out.set("arap_energy_truth", num(e_arap_truth / n_truth as f64));
+        if !truth_strains.is_empty() {
+            out.set(
+                "edge_strain_p99_truth",
+                num(percentile(&truth_strains, EDGE_STRAIN_PERCENTILE)?),
+            );
+        }
         let pooled = if procrustes { &rigid } else { &raw };
         record_errors(pooled, &sb, "", out)?;
         record_errors(&rigid, &sb, "_rigid", out)?;
