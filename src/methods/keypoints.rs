@@ -13,7 +13,10 @@ use crate::ops::geodesic::EdgeGraph;
 use crate::ops::{
     farthest_point_sampling, farthest_point_sampling_from, total_area, vertex_neighbours, FpsMetric,
 };
-use crate::transfer::{perturb_keypoints, select_keypoints, KeypointOptions, KeypointSelection};
+use crate::transfer::{
+    fit_keypoints, perturb_keypoints, select_keypoints, KeypointFit, KeypointOptions,
+    KeypointSelection,
+};
 use crate::{Error, Result};
 
 /// Pool of a random simulated user.
@@ -122,17 +125,10 @@ impl KeypointSource {
     }
 }
 
-/// Selections already made in this process, keyed by a hash of the source
-/// meshes and the options: configs that repeat one selection in many rows
-/// (e.g. `auto-noise.toml`: one per noise level and seed) select once. The
-/// selection is deterministic, so a memoised result equals a recomputed one.
-fn memo_select(a: &Mesh, a_def: &[Mesh], opts: &KeypointOptions) -> Result<Arc<KeypointSelection>> {
-    use std::collections::HashMap;
-    use std::sync::{Mutex, OnceLock};
-    type Memo = Mutex<HashMap<(u64, String), Arc<KeypointSelection>>>;
-    static MEMO: OnceLock<Memo> = OnceLock::new();
+/// A hash of meshes' vertex coordinates and faces (memo keys).
+fn meshes_hash<'m>(meshes: impl IntoIterator<Item = &'m Mesh>) -> u64 {
     let mut bytes: Vec<u8> = Vec::new();
-    for m in std::iter::once(a).chain(a_def) {
+    for m in meshes {
         for p in m.vertices() {
             for c in p.coords.iter() {
                 bytes.extend_from_slice(&c.to_le_bytes());
@@ -145,16 +141,63 @@ fn memo_select(a: &Mesh, a_def: &[Mesh], opts: &KeypointOptions) -> Result<Arc<K
         }
         bytes.push(0xff);
     }
-    let key = (crate::data::fnv1a(&bytes), format!("{opts:?}"));
-    let memo = MEMO.get_or_init(|| Mutex::new(HashMap::new()));
-    if let Some(s) = memo.lock().ok().and_then(|m| m.get(&key).cloned()) {
-        return Ok(s);
+    crate::data::fnv1a(&bytes)
+}
+
+/// A process-wide memo of deterministic results keyed by a hash of the
+/// source meshes and a description of everything else they depend on.
+struct Memo<T>(std::sync::OnceLock<std::sync::Mutex<MemoMap<T>>>);
+
+/// The map behind a [`Memo`].
+type MemoMap<T> = std::collections::HashMap<(u64, String), Arc<T>>;
+
+impl<T> Memo<T> {
+    const fn new() -> Self {
+        Memo(std::sync::OnceLock::new())
     }
-    let sel = Arc::new(select_keypoints(a, a_def, opts)?);
-    if let Ok(mut m) = memo.lock() {
-        m.insert(key, sel.clone());
+
+    fn get_or(&self, key: (u64, String), f: impl FnOnce() -> Result<T>) -> Result<Arc<T>> {
+        let memo = self.0.get_or_init(Default::default);
+        if let Some(s) = memo.lock().ok().and_then(|m| m.get(&key).cloned()) {
+            return Ok(s);
+        }
+        let v = Arc::new(f()?);
+        if let Ok(mut m) = memo.lock() {
+            m.insert(key, v.clone());
+        }
+        Ok(v)
     }
-    Ok(sel)
+}
+
+/// Selections already made in this process, keyed by a hash of the source
+/// meshes and the options: configs that repeat one selection in many rows
+/// (e.g. `auto-noise.toml`: one per noise level and seed) select once. The
+/// selection is deterministic, so a memoised result equals a recomputed one.
+fn memo_select(a: &Mesh, a_def: &[Mesh], opts: &KeypointOptions) -> Result<Arc<KeypointSelection>> {
+    static MEMO: Memo<KeypointSelection> = Memo::new();
+    let key = (
+        meshes_hash(std::iter::once(a).chain(a_def)),
+        format!("{opts:?}"),
+    );
+    MEMO.get_or(key, || select_keypoints(a, a_def, opts))
+}
+
+/// [`fit_keypoints`], memoised like [`memo_select`]: rows that fit the same
+/// key points on the same source (the frame variants of one selection, the
+/// noise levels of `auto-noise.toml`) fit once; the fit is deterministic.
+/// Their `seconds_fit` is then near zero.
+pub fn memo_fit(
+    a: &Mesh,
+    a_def: &[Mesh],
+    keypoints: &[usize],
+    opts: &KeypointOptions,
+) -> Result<Arc<KeypointFit>> {
+    static MEMO: Memo<KeypointFit> = Memo::new();
+    let key = (
+        meshes_hash(std::iter::once(a).chain(a_def)),
+        format!("{keypoints:?} {opts:?}"),
+    );
+    MEMO.get_or(key, || fit_keypoints(a, a_def, keypoints, opts))
 }
 
 /// `count` random key points: among the FPS candidates (`n_candidates`,
@@ -269,4 +312,38 @@ pub fn extremity_keypoints(
         picks = perturb_keypoints(a, &picks, jitter * sqrt_area, seed)?;
     }
     Ok(picks)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::data::synthetic::FaustStyle;
+
+    #[test]
+    fn memoised_fit_is_the_fit_and_is_computed_once() {
+        let set = FaustStyle {
+            subjects: 1,
+            poses: 2,
+            ..Default::default()
+        }
+        .generate()
+        .unwrap();
+        let (a, d) = (&set.meshes[0][0], &set.meshes[0][1..]);
+        let opts = KeypointOptions::default();
+        let kp = [3, 400, 900];
+        let first = memo_fit(a, d, &kp, &opts).unwrap();
+        let again = memo_fit(a, d, &kp, &opts).unwrap();
+        assert!(Arc::ptr_eq(&first, &again));
+        let direct = fit_keypoints(a, d, &kp, &opts).unwrap();
+        assert_eq!(first.transforms, direct.transforms);
+        assert_eq!(first.error, direct.error);
+        // Other key points or options are other entries.
+        let other = memo_fit(a, d, &[3, 400, 901], &opts).unwrap();
+        assert!(!Arc::ptr_eq(&first, &other));
+        let opts2 = KeypointOptions {
+            seed: 1,
+            ..opts.clone()
+        };
+        assert!(!Arc::ptr_eq(&first, &memo_fit(a, d, &kp, &opts2).unwrap()));
+    }
 }

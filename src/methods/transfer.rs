@@ -5,7 +5,7 @@
 
 use std::time::Instant;
 
-use super::keypoints::{KeypointSource, PickedKeypoints};
+use super::keypoints::{memo_fit, KeypointSource, PickedKeypoints};
 use super::target::{TargetFound, TargetPoints};
 use crate::baselines::{
     correspond, CageOptions, CageTransfer, CorrespondenceOptions, DeformationTransfer,
@@ -13,8 +13,7 @@ use crate::baselines::{
 };
 use crate::mesh::Mesh;
 use crate::transfer::{
-    fit_keypoints, transfer_detailed, KeypointFit, KeypointOptions, TargetWeights, TransferFrame,
-    TransferOptions,
+    transfer_detailed, KeypointFit, KeypointOptions, TargetWeights, TransferFrame, TransferOptions,
 };
 use crate::{Error, Result, Vec3};
 
@@ -170,7 +169,7 @@ impl TransferMethod {
             } => {
                 let picked = keypoints.pick(a, a_def, &options.keypoints)?;
                 let t = Instant::now();
-                let fit = fit_keypoints(a, a_def, &picked.keypoints, &options.keypoints)?;
+                let fit = (*memo_fit(a, a_def, &picked.keypoints, &options.keypoints)?).clone();
                 let seconds_fit = t.elapsed().as_secs_f64();
                 let found = target.find(a, b, &picked.keypoints)?;
                 // Raw and handle-relative frames: when the registration
