@@ -255,3 +255,37 @@ fn repeat_copies_every_case_before_random() {
     let e = with("repeat = 0").unwrap_err().to_string();
     assert!(e.contains("rep.toml") && e.contains("cases.repeat"), "{e}");
 }
+
+#[test]
+fn weights_key_chooses_the_bounded_weight_problem() {
+    use deformlab::skin::bbw::WeightMode;
+    let mode_of =
+        |text: &str, i: usize| match &parse_config(text, Path::new("exp.toml")).unwrap().methods[i]
+            .method
+        {
+            Method::Transfer(TransferMethod::Bdt { options, .. }) => (
+                options.keypoints.weights.mode,
+                options.transfer_options().weights.mode,
+            ),
+            m => panic!("{m:?}"),
+        };
+    // Default: per-handle bounds, rows normalised, on A and on B.
+    assert_eq!(
+        mode_of(GOOD, 0),
+        (WeightMode::PerHandle, WeightMode::PerHandle)
+    );
+    let coupled = GOOD.replace(
+        "kind = \"bdt\"\n",
+        "kind = \"bdt\"\nweights = \"coupled\"\n",
+    );
+    assert_eq!(
+        mode_of(&coupled, 0),
+        (WeightMode::Coupled, WeightMode::Coupled)
+    );
+    assert_eq!(
+        mode_of(&coupled, 1),
+        (WeightMode::PerHandle, WeightMode::PerHandle)
+    );
+    let e = error_of(&GOOD.replace("kind = \"bdt\"\n", "kind = \"bdt\"\nweights = \"exact\"\n"));
+    assert!(e.contains("weights") && e.contains("coupled"), "{e}");
+}

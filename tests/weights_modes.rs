@@ -1,8 +1,8 @@
 //! The two bounded-weight problems of the key point pipeline agree closely:
-//! the selection ranks trial sets with per-handle bounded weights (rows
-//! normalised; `KeypointOptions::selection_weights`), the final fit and the
-//! target use the coupled problem of BDT Eq. 1 (`KeypointOptions::weights`).
-//! The documented bounds (mean per-vertex total variation, fit error of the
+//! per-handle bounded weights with rows normalised (the default of
+//! `KeypointOptions::weights`, the practice of BDT's ref. [5]) and the
+//! coupled problem of BDT Eq. 1 (`weights = "coupled"`). The documented
+//! bounds (mean per-vertex total variation, fit error of the
 //! same key points) are checked here on the synthetic subject and, when
 //! present, on FAUST.
 

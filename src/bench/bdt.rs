@@ -152,13 +152,11 @@ pub fn run(quick: bool, full_exact: bool) -> Result<String> {
     emit!(
         out,
         "Fast vs exact key point selection. Defaults otherwise (ε = 0.03 on the mean per-vertex \
-         distance, unit-sphere units; at most 30 key points; trial sets ranked with {:?} bounded \
-         weights, final fit with {:?}); rayon threads = {threads}. Ê = the BBW fit error of the \
-         final key points (fit_keypoints with the final fit's weights, BDT Eq. 1; the same \
-         measure for both modes); gap = relative to exact mode at the same n_c; \
+         distance, unit-sphere units; at most 30 key points; weights {:?}); rayon threads = \
+         {threads}. Ê = the BBW fit error of the final key points (fit_keypoints in exact mode, \
+         the same measure for both modes); gap = relative to exact mode at the same n_c; \
          evaluations = exact / all trial sets evaluated (final fit included); load = 1-minute \
          load average when the row started.\n",
-        KeypointOptions::default().selection_weights.mode,
         KeypointOptions::default().weights.mode
     );
     emit!(

@@ -47,16 +47,13 @@ pub struct SelectArgs {
     /// Error compared with ε [default: mean].
     #[arg(long, value_enum)]
     pub error_norm: Option<ErrorNorm>,
-    /// Bounded biharmonic weights of the final fit (and of the target in
-    /// `transfer`): coupled = BDT Eq. 1 (bounds and partition of unity in
-    /// one problem); per-handle = each handle bounded separately, rows
-    /// normalised, as libigl's bbw [default: coupled].
+    /// Bounded biharmonic weights of every fit on the source (trials and
+    /// the final fit) and of the target in `transfer`: per-handle = each
+    /// handle bounded separately, rows normalised (libigl's bbw, BDT's
+    /// ref. [5]); coupled = BDT Eq. 1 as written (bounds and partition of
+    /// unity in one problem, slower) [default: per-handle].
     #[arg(long, value_enum)]
     pub weights: Option<WeightMode>,
-    /// Bounded biharmonic weights of the selection's trial sets (exact
-    /// mode's trials, fast mode's verified trials) [default: per-handle].
-    #[arg(long, value_enum)]
-    pub selection_weights: Option<WeightMode>,
 }
 
 impl SelectArgs {
@@ -74,10 +71,6 @@ impl SelectArgs {
             weights: match self.weights {
                 Some(m) => BbwOptions::with_mode(m),
                 None => d.weights,
-            },
-            selection_weights: match self.selection_weights {
-                Some(m) => BbwOptions::with_mode(m),
-                None => d.selection_weights,
             },
             ..d
         }
@@ -121,7 +114,6 @@ impl SelectArgs {
             "mode": opts.mode,
             "error_norm": format!("{:?}", opts.error_norm),
             "weights": format!("{:?}", opts.weights.mode),
-            "selection_weights": format!("{:?}", opts.selection_weights.mode),
         })
     }
 }

@@ -67,6 +67,7 @@ use crate::methods::{
 };
 use crate::ops::FpsMetric;
 use crate::register::DictionaryExamples;
+use crate::skin::bbw::{BbwOptions, WeightMode};
 use crate::skin::{FeatureKind, GroupFeatures};
 use crate::transfer::{
     ErrorNorm, FastOptions, KeypointOptions, SelectionMode, TargetWeights, TransferFrame,
@@ -325,6 +326,11 @@ macro_rules! pipeline_struct {
             /// Target weights: `auto` (default), `bounded`, `fast`.
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub target_weights: Option<TargetWeights>,
+            /// Bounded biharmonic weights of the fits on A and of the target:
+            /// `per_handle` (default; rows normalised) or `coupled` (BDT
+            /// Eq. 1 as written).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub weights: Option<WeightMode>,
             /// Target key points: `identity` (default; shared connectivity,
             /// target vertex = source vertex) or `auto` (registration of A
             /// onto B, [`crate::transfer::auto`]; any connectivity).
@@ -1177,7 +1183,7 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
         let pipe = merge_pipeline!(m, config.defaults;
             n_candidates, seed, epsilon, error_norm, max_keypoints, mode, fps, groups,
             gamma_logr, gamma_s, n_groups, use_ediff, lambda, max_swap_passes, kmeans_sample,
-            arap_max_iter, selection_poses, frame, refine, target_weights,
+            arap_max_iter, selection_poses, frame, refine, target_weights, weights,
             target_correspondence, target_noise, target_noise_seed);
         let bdt = bdt_options(&pipe, config.seed, path, i)?;
         let target = target_points(&pipe, &bdt, path, i)?;
@@ -1426,6 +1432,10 @@ fn bdt_options(p: &PipelineSpec, seed: u64, path: &Path, i: usize) -> Result<Bdt
         max_swap_passes: p.max_swap_passes.unwrap_or(dk.max_swap_passes),
         error_norm: p.error_norm.unwrap_or(dk.error_norm),
         fast,
+        weights: match p.weights {
+            Some(mode) => BbwOptions { mode, ..dk.weights },
+            None => dk.weights,
+        },
         ..dk.clone()
     };
     Ok(BdtOptions {

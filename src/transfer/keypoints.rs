@@ -34,14 +34,14 @@
 //! # Modes
 //!
 //! * [`SelectionMode::Exact`] — the paper: weights recomputed by
-//!   [`Biharmonic::weights`] (bounded, [`KeypointOptions::selection_weights`])
-//!   for every trial set, k-means on all vertices ([`GROUP_KMEANS`]).
+//!   [`Biharmonic::weights`] (bounded, [`KeypointOptions::weights`]) for every
+//!   trial set, k-means on all vertices ([`GROUP_KMEANS`]).
 //! * [`SelectionMode::Fast`] — the same method, reached faster: candidates
 //!   are *screened* with cheap weights and groups, then the best few of
 //!   every greedy step are *ranked* by the exact evaluation (the one of
 //!   exact mode, bounded biharmonic weights with
-//!   [`KeypointOptions::selection_weights`]), and every decision is taken on
-//!   the exact error. See [`FastOptions`]:
+//!   [`KeypointOptions::weights`]), and every decision is taken on the
+//!   exact error. See [`FastOptions`]:
 //!   - **Screening weights (Green's functions).** The unbounded biharmonic
 //!     weights of any handle set satisfy `Q w_k = Σ_{s∈S} μ_ks e_s` (Lagrange
 //!     multipliers at the handles), so with particular solutions `g_c` of
@@ -70,14 +70,9 @@
 //!     mode only in *which* trial sets get an exact evaluation: with
 //!     `verify_top ≥ n_c` it is exact mode.
 //!
-//! In both modes the trace errors are those of the exact evaluation, and
-//! the final set is fitted with the weights of BDT Eq. 1
-//! ([`KeypointOptions::weights`], coupled by default; the fit of
-//! [`fit_keypoints`], which does not depend on the mode): the returned
-//! error and transforms are that fit's. The trial sets are ranked with
-//! per-handle bounded weights ([`KeypointOptions::selection_weights`]),
-//! 2–9× cheaper and within 2.6 % of the coupled fit error (measured; see
-//! that field).
+//! In both modes the final set is fitted exactly (the fit of
+//! [`fit_keypoints`], which does not depend on the mode), and the reported
+//! error, trace errors and transforms are those of the exact evaluation.
 
 use std::time::Instant;
 
@@ -209,8 +204,15 @@ pub struct FastOptions {
 ///   same key points); FAUST m = 1, n_c = 100: the same key points as with
 ///   3, in 9.1 s instead of 20.4 s.
 ///
-/// 1 is the default: inside the 2 % target everywhere measured, and the
-/// only value under 10 s at FAUST size. Raise it for a closer match.
+/// * `deformlab bench keypoints --exact-full` (n_c = 100, one core per
+///   row): 1, 3 and 6 chose the same key points on every mesh; against
+///   exact mode the same set on FAUST (m = 1 and 3) and on the synthetic
+///   subject with m = 3, −5.3 % (better) at 6722 vertices and +4.1 % at
+///   1682 vertices (m = 1; another local optimum of the greedy search).
+///   FAUST m = 1 on 2 idle cores: 11.1 s (median of 3).
+///
+/// 1 is the default: larger values cost time without changing a result
+/// measured. Raise it for a closer match.
 pub const DEFAULT_VERIFY_TOP: usize = 1;
 
 impl Default for FastOptions {
@@ -243,28 +245,27 @@ pub struct KeypointOptions {
     pub mode: SelectionMode,
     /// Metric of the candidate FPS.
     pub fps: FpsMetric,
-    /// Bounded biharmonic weights of the final fit `D_S(A)` (the transforms
-    /// `T_k` that are transferred) and, through
+    /// Bounded biharmonic weights of every fit `D_S(A)` (the trial sets of
+    /// both modes, fast mode's verified trials and the final fit whose
+    /// transforms `T_k` are transferred) and, through
     /// [`crate::transfer::target::TargetWeights::Bounded`], of the target
-    /// `B`. Default: [`WeightMode::Coupled`], BDT Eq. 1 as written (bounds
-    /// and partition of unity in one problem).
+    /// `B`. Default: [`WeightMode::PerHandle`] — each weight function
+    /// solved with its bounds, rows normalised to sum to one afterwards (the
+    /// practice of Jacobson et al. 2011, BDT's ref. [5], and of libigl's
+    /// `bbw`, whose per-handle weights ours match to 3.6e-6): bounds,
+    /// interpolation and partition of unity hold, but the weights are not
+    /// the minimiser of BDT Eq. 1. [`WeightMode::Coupled`] solves Eq. 1 as
+    /// written (config key `weights = "coupled"`, CLI `--weights coupled`).
+    /// Measured: the two weights differ little (`tests/weights_modes.rs`:
+    /// mean per-vertex total variation 0.003–0.012, fit errors of the same
+    /// key points within 2.6 %), coupled costs 2.2–8.7× more on FAUST
+    /// (1.8–8.9 s against 0.7–1.0 s for 4–6 key points, one thread), and on
+    /// the synthetic Fig. 14 cases the coupled pipeline (selection, fit and
+    /// target) transferred worse (mean error 0.0297 against 0.0267 √area;
+    /// `automatic-coupled` in `experiments/fig14.toml`). Ranking with one and
+    /// fitting with the other was worse than either (0.0305), so one option
+    /// sets both.
     pub weights: BbwOptions,
-    /// Bounded biharmonic weights of the selection's trial sets (every trial
-    /// in exact mode; the verified best-screened trials in fast mode), so
-    /// that both modes rank by the same measure. Default:
-    /// [`WeightMode::PerHandle`] — each weight function solved with its own
-    /// bounds, rows normalised afterwards (the practice of Jacobson et al.
-    /// 2011, BDT's ref. [5], and of libigl's `bbw`, whose per-handle weights
-    /// ours match to 3.6e-6). Measured (`tests/weights_modes.rs`, which
-    /// holds the bounds below on every build; FAUST tr_reg_001 with 4–6 key
-    /// points and the synthetic subject with 4): mean per-vertex total
-    /// variation to the coupled weights 0.003–0.012 (largest entry
-    /// difference 0.06), fit errors of the same key points within 2.6 % (in
-    /// either direction: the coupled weights have the lower biharmonic
-    /// energy, not always the lower fit error), at 2.2–8.7× less time on
-    /// FAUST (0.7–1.0 s against 1.8–8.9 s, one thread). The selection's
-    /// reported `error` is the final fit's (with [`KeypointOptions::weights`]).
-    pub selection_weights: BbwOptions,
     /// Rotation-group features (paper: `W′`, Eq. 15).
     pub groups: GroupFeatures,
     /// Number of rotation groups; `None`: `|S|` (paper).
@@ -293,8 +294,7 @@ impl Default for KeypointOptions {
             max_keypoints: 30,
             mode: SelectionMode::Fast,
             fps: FpsMetric::Geodesic,
-            weights: BbwOptions::with_mode(WeightMode::Coupled),
-            selection_weights: BbwOptions::with_mode(WeightMode::PerHandle),
+            weights: BbwOptions::with_mode(WeightMode::PerHandle),
             groups: GroupFeatures::AUGMENTED,
             n_groups: None,
             arap: ArapOptions::default(),
@@ -639,19 +639,11 @@ impl<'a> Context<'a> {
         self.rest.n_vertices()
     }
 
-    /// Skinning weights of a set: the fast screen's, a trial's
-    /// ([`KeypointOptions::selection_weights`]) or the final fit's
-    /// ([`KeypointOptions::weights`], `keep`).
-    fn weights(
-        &self,
-        set: &[usize],
-        fast: Option<&GreenBasis>,
-        keep: bool,
-    ) -> Result<DMatrix<f64>> {
+    /// Skinning weights of a trial set.
+    fn weights(&self, set: &[usize], fast: Option<&GreenBasis>) -> Result<DMatrix<f64>> {
         match fast {
             Some(g) => g.weights(set, self.opts.fast.bounds),
-            None if keep => self.bih.weights(set, &self.opts.weights),
-            None => self.bih.weights(set, &self.opts.selection_weights),
+            None => self.bih.weights(set, &self.opts.weights),
         }
     }
 
@@ -686,10 +678,9 @@ impl<'a> Context<'a> {
     }
 
     /// `D_S(A)` towards every target and its error. `fast` selects the fast
-    /// weights/groups/ARAP settings; `keep` (the final fit) keeps transforms
-    /// and positions and uses the final fit's weights.
+    /// weights/groups/ARAP settings; `keep` keeps transforms and positions.
     fn evaluate(&self, set: &[usize], fast: Option<&GreenBasis>, keep: bool) -> Result<Eval> {
-        let w = self.weights(set, fast, keep)?;
+        let w = self.weights(set, fast)?;
         let groups = self.groups(&w, fast.is_some())?;
         let mut arap_opts = self.opts.arap.clone();
         if !arap_opts.use_ediff {
