@@ -184,12 +184,7 @@ fn transfer(
             fit_strains.extend(edge_strains(a, pos)?);
         }
         out.set("fit_error_unit", num(fit_err / a_def.len() as f64));
-        if !fit_strains.is_empty() {
-            out.set(
-                "edge_strain_p99_fit",
-                num(percentile(&fit_strains, EDGE_STRAIN_PERCENTILE)?),
-            );
-        }
+        record_strain_p99("edge_strain_p99_fit", &fit_strains, out)?;
     }
     if let Some(errs) = &o.cage_fit_errors {
         let sa = ErrorScale::of_reference(a)?;
@@ -207,12 +202,7 @@ fn transfer(
     for d in &a_def {
         source_strains.extend(edge_strains(a, d.vertices())?);
     }
-    if !source_strains.is_empty() {
-        out.set(
-            "edge_strain_p99_source",
-            num(percentile(&source_strains, EDGE_STRAIN_PERCENTILE)?),
-        );
-    }
+    record_strain_p99("edge_strain_p99_source", &source_strains, out)?;
     measure(b, &o.meshes, &cm.truth, metrics, out)?;
 
     if let Some(r) = render {
@@ -334,8 +324,17 @@ fn record_target(
 /// suffixes.
 const WITHIN_BOUNDS: [(f64, &str); 2] = [(0.02, "002"), (0.05, "005")];
 
-/// Percentile of the per-edge strains reported as `edge_strain_p99`.
+/// Percentile of the per-edge strains reported as `edge_strain_p99*`.
 const EDGE_STRAIN_PERCENTILE: f64 = 99.0;
+
+/// Sets `column` to the [`EDGE_STRAIN_PERCENTILE`] of pooled edge strains
+/// (left empty when there are none).
+fn record_strain_p99(column: &str, strains: &[f64], out: &mut CaseResult) -> Result<()> {
+    if !strains.is_empty() {
+        out.set(column, num(percentile(strains, EDGE_STRAIN_PERCENTILE)?));
+    }
+    Ok(())
+}
 
 /// `err_{mean,rms,max}_{unit,area}{suffix}` of the pooled vertex errors.
 fn record_errors(
@@ -397,12 +396,7 @@ pub(super) fn measure(
     out.set("arap_energy", num(e_arap / np));
     out.set("distortion_area", num(d_area / np));
     out.set("distortion_edge", num(d_edge / np));
-    if !strains.is_empty() {
-        out.set(
-            "edge_strain_p99",
-            num(percentile(&strains, EDGE_STRAIN_PERCENTILE)?),
-        );
-    }
+    record_strain_p99("edge_strain_p99", &strains, out)?;
     // Distortion curve: fraction of faces whose |log area ratio| to B is
     // within a bound (grid 0..1, i.e. area ratios within [1/e, e]).
     let grid = curve_grid(1.0, metrics.curve_points())?;
@@ -413,12 +407,7 @@ pub(super) fn measure(
     ));
     if n_truth > 0 {
         out.set("arap_energy_truth", num(e_arap_truth / n_truth as f64));
-        if !truth_strains.is_empty() {
-            out.set(
-                "edge_strain_p99_truth",
-                num(percentile(&truth_strains, EDGE_STRAIN_PERCENTILE)?),
-            );
-        }
+        record_strain_p99("edge_strain_p99_truth", &truth_strains, out)?;
         let pooled = if procrustes { &rigid } else { &raw };
         record_errors(pooled, &sb, "", out)?;
         record_errors(&rigid, &sb, "_rigid", out)?;
