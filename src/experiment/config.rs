@@ -59,7 +59,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::methods::completion::{
-    CompareWith, DictionaryKind, FbtOptions, FeatureOptions, SolverKind,
+    CompareWith, DictionaryKind, FbtOptions, FeatureOptions, PipelineKind, SolverKind,
 };
 use crate::methods::{
     BdtOptions, Clustering, Examples, KeypointSource, Pool, Strategy, TargetCorrespondence,
@@ -428,13 +428,17 @@ pub struct FbtSpec {
     /// otherwise of the main stage, default that of `FbtConfig`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub m: Option<usize>,
-    /// Segments of the skeleton weights (default 12).
+    /// Bones of the skeleton weights (default: chosen by the data).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub segments: Option<usize>,
-    /// Shapes besides the reference the skeleton weights are learnt from
-    /// (default 4).
+    pub bones: Option<usize>,
+    /// Shapes besides the reference and the target the skeleton weights
+    /// are learnt from (default 4).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rig_poses: Option<usize>,
+    /// Solving pipeline: `"skeleton"` (the paper's for articulated shapes,
+    /// default) or `"lbo"` (LBO only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pipeline: Option<PipelineKind>,
     /// Rotation clusters r (default 20).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub clusters: Option<usize>,
@@ -493,8 +497,9 @@ impl FbtSpec {
         FbtOptions {
             q: self.q.unwrap_or(d.q),
             m: self.m.unwrap_or(d.m),
-            segments: self.segments.unwrap_or(d.segments),
+            bones: self.bones.or(d.bones),
             rig_poses: self.rig_poses.unwrap_or(d.rig_poses),
+            pipeline: self.pipeline.unwrap_or(d.pipeline),
             clusters: self.clusters.unwrap_or(d.clusters),
             scale: self.scale.unwrap_or(d.scale),
             alpha: self.alpha.or(d.alpha),
@@ -533,7 +538,7 @@ impl FbtSpec {
         };
         pos("q", self.q)?;
         pos("m", self.m)?;
-        pos("segments", self.segments)?;
+        pos("bones", self.bones)?;
         pos("rig_poses", self.rig_poses)?;
         pos("clusters", self.clusters)?;
         pos("features", self.features)?;
@@ -568,13 +573,14 @@ impl FbtSpec {
             if self.m.is_some() {
                 return e(
                     "m",
-                    "does not apply to the skeleton dictionary (use `segments`)",
+                    "does not apply to the skeleton dictionary (use `bones`)",
                 );
             }
-        } else if self.segments.is_some() || self.rig_poses.is_some() {
+        }
+        if self.task == FbtTask::Projection && self.pipeline.is_some() {
             return e(
-                "segments",
-                "segments / rig_poses apply to task = \"projection\" with dictionary = \"skeleton\"",
+                "pipeline",
+                "the projection task has no solving pipeline (use `dictionary`)",
             );
         }
         match self.solver.unwrap_or_default() {

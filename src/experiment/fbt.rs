@@ -54,18 +54,20 @@ use crate::eval::{
     arap_energy, cumulative_curve, curve_grid, error_stats, geodesic_error_curve, vertex_errors,
     ErrorScale,
 };
+use crate::mesh::compact::{SolvablePart, DEFAULT_MIN_PART_FRACTION};
 use crate::mesh::io::write_ply;
 use crate::mesh::set::ConnectivityReport;
 use crate::mesh::Mesh;
 use crate::methods::completion::{CompletionProblem, CompletionSolver, FbtOptions, FeatureOptions};
 use crate::methods::completion::{DictionaryKind, SolverKind};
 use crate::register::{
-    apply_rows, best_permutation, build, feature_row_groups, interpolate, metrics, vertex_rows,
-    IterOptions, Schedule,
+    apply_rows, best_permutation, build_with_rig, feature_row_groups, interpolate, metrics,
+    vertex_rows, IterOptions, Schedule,
 };
 use crate::skin::dictionary::{Dictionary, SkinningWeights};
 use crate::skin::lbo::lbo_basis;
 use crate::skin::lbs::points_from_matrix;
+use crate::skin::rigging::{example_skinning, RigOptions};
 use crate::solve::EigenOptions;
 use crate::{Error, Point, Result};
 
@@ -88,6 +90,9 @@ struct FbtCase {
     rest: Vec<Mesh>,
     example_ids: Vec<String>,
     rest_ids: Vec<String>,
+    /// Vertices dropped for the solve (unreferenced, tiny loose parts);
+    /// every mesh above is the kept part.
+    part: SolvablePart,
 }
 
 fn load_case(col: &Collection, case: &Case, q: usize, seed: u64) -> Result<FbtCase> {
@@ -138,6 +143,15 @@ fn load_case(col: &Collection, case: &Case, q: usize, seed: u64) -> Result<FbtCa
             ConnectivityReport::of(&all)
         )));
     }
+    // Unreferenced vertices and tiny loose parts carry no area: drop them
+    // (the same vertices from every shape: one face list) and say so.
+    let part = SolvablePart::of(&all[0], DEFAULT_MIN_PART_FRACTION)?;
+    if !part.is_whole() {
+        all = all
+            .iter()
+            .map(|m| part.restrict(m))
+            .collect::<Result<Vec<Mesh>>>()?;
+    }
     let rest = all.split_off(q + 1);
     let target = all.pop().ok_or_else(|| Error::invalid("no target"))?;
     Ok(FbtCase {
@@ -146,7 +160,44 @@ fn load_case(col: &Collection, case: &Case, q: usize, seed: u64) -> Result<FbtCa
         rest,
         example_ids: ids,
         rest_ids,
+        part,
     })
+}
+
+/// The shapes the skeleton weights are learnt from: the first `rig_poses`
+/// of the class in draw order besides the reference and the target (the
+/// examples of every q come first, so the rig is the same for every q).
+fn rig_shapes(fc: &FbtCase, o: &FbtOptions) -> Vec<Mesh> {
+    fc.examples[1..]
+        .iter()
+        .chain(&fc.rest)
+        .take(o.rig_poses)
+        .cloned()
+        .collect()
+}
+
+/// The parts of the class that a gross failure misplaces: the dataset's
+/// true segmentation when it has one (synthetic set), else the bones of
+/// the example-based skinning of the rig shapes (never the target),
+/// vertex → dominant bone.
+fn class_parts(col: &Collection, fc: &FbtCase, o: &FbtOptions) -> Result<Vec<usize>> {
+    if let Some(labels) = &col.labels {
+        if labels.len() == fc.part.new_index.len() {
+            return Ok(fc.part.kept.iter().map(|&i| labels[i]).collect());
+        }
+    }
+    let rig = rig_shapes(fc, o);
+    if rig.is_empty() {
+        return Err(Error::invalid(
+            "the class's parts are learnt from its other shapes: the class has none besides \
+             the reference and the target",
+        ));
+    }
+    let opts = RigOptions {
+        bones: o.bones,
+        ..RigOptions::default()
+    };
+    Ok(example_skinning(&fc.examples[0], &rig, &opts)?.labels)
 }
 
 fn save(dir: &std::path::Path, name: &str, mesh: &Mesh) -> Result<()> {
@@ -176,23 +227,31 @@ pub fn run(
     out.set("examples", fc.example_ids.join(";"));
     out.set("n_vertices", fc.target.n_vertices().to_string());
     out.set("n_faces", fc.target.n_faces().to_string());
+    out.set("dropped_vertices", fc.part.dropped().to_string());
+    if !fc.part.is_whole() {
+        out.set("dropped_note", fc.part.describe());
+    }
     let m = o.m;
     out.set(
         "dictionary",
         match spec.dictionary.unwrap_or_default() {
             DictionaryKind::Lbo => format!("LBO m = {m}"),
-            DictionaryKind::Skeleton => format!("skeleton, {} segments", o.segments),
+            DictionaryKind::Skeleton => match o.bones {
+                Some(b) => format!("skeleton, {b} bones"),
+                None => "skeleton, bones chosen by the data".to_string(),
+            },
             DictionaryKind::OneExample => format!("one example, size of LBO m = {m}"),
         },
     );
     let render_dir = render.map(|(r, name)| r.dir.join(name));
     let pose = case.poses[0].clone();
     match spec.task {
-        FbtTask::Projection => projection(&fc, spec, &o, seed, out),
+        FbtTask::Projection => projection(&fc, spec, &o, out),
         FbtTask::Timing => timing(&fc, &o, seed, out),
         FbtTask::Scale => scale(&fc, &o, seed, out, render_dir.as_deref(), &pose),
         FbtTask::Completion => completion(
             &fc,
+            &class_parts(col, &fc, &o)?,
             &o,
             spec.solver.unwrap_or_default(),
             seed,
@@ -220,13 +279,7 @@ fn set_distortion(out: &mut CaseResult, d: &[f64], suffix: &str) {
 }
 
 /// Table 2: the closest shape in the dictionary's span.
-fn projection(
-    fc: &FbtCase,
-    spec: &FbtSpec,
-    o: &FbtOptions,
-    seed: u64,
-    out: &mut CaseResult,
-) -> Result<()> {
+fn projection(fc: &FbtCase, spec: &FbtSpec, o: &FbtOptions, out: &mut CaseResult) -> Result<()> {
     let t = Instant::now();
     let reference = &fc.examples[0];
     let m = o.m;
@@ -241,20 +294,20 @@ fn projection(
             Dictionary::from_meshes(&fc.examples[..1], &SkinningWeights::lbo(&basis))?
         }
         DictionaryKind::Skeleton => {
-            let k = o.rig_poses;
-            if fc.examples.len() - 1 + fc.rest.len() < k {
+            let rig = rig_shapes(fc, o);
+            if rig.len() < o.rig_poses {
                 return Err(Error::invalid(format!(
-                    "skeleton weights need {k} rig shapes besides the reference and the target"
+                    "skeleton weights need {} rig shapes besides the reference and the target",
+                    o.rig_poses
                 )));
             }
-            // Rig shapes: the draw order of the class, independent of q.
-            let rig: Vec<Mesh> = fc.examples[1..]
-                .iter()
-                .chain(&fc.rest)
-                .take(k)
-                .cloned()
-                .collect();
-            let w = SkinningWeights::segments(reference, &rig, o.segments, 0.05, seed)?;
+            let opts = RigOptions {
+                bones: o.bones,
+                ..RigOptions::default()
+            };
+            let (w, r) = SkinningWeights::skeleton(reference, &rig, &opts)?;
+            out.set("n_bones", r.bones().to_string());
+            out.set("rig_rms", num(r.rms_error));
             Dictionary::from_meshes(&fc.examples, &w)?
         }
     };
@@ -274,7 +327,7 @@ fn timing(fc: &FbtCase, o: &FbtOptions, seed: u64, out: &mut CaseResult) -> Resu
     let params = o.params();
     let schedule = Schedule::default();
     let t = Instant::now();
-    let setup = build(&fc.examples, &o.config(seed))?;
+    let setup = build_with_rig(&fc.examples, &rig_shapes(fc, o), &o.config(seed))?;
     let t_build = t.elapsed().as_secs_f64();
     let area = setup.graph.area();
     let feats = feature_points(&fc.target, o.features.features, seed)?;
@@ -344,7 +397,7 @@ fn scale(
     let s = o.scale;
     let params = o.params();
     let t = Instant::now();
-    let setup = build(&fc.examples, &o.config(seed))?;
+    let setup = build_with_rig(&fc.examples, &rig_shapes(fc, o), &o.config(seed))?;
     out.set("seconds_precompute", secs(t.elapsed().as_secs_f64()));
     let target = fc.target.with_vertices(scaled(fc.target.vertices(), s))?;
     let verts = feature_points(&fc.examples[0], o.vertices, seed)?;
@@ -400,6 +453,7 @@ fn scale(
 #[allow(clippy::too_many_arguments)]
 fn completion(
     fc: &FbtCase,
+    parts: &[usize],
     o: &FbtOptions,
     solver: SolverKind,
     seed: u64,
@@ -415,7 +469,8 @@ fn completion(
         &fc.target,
         &o.features,
         fnv1a(case.id.as_bytes()),
-    )?;
+    )?
+    .with_rig_shapes(rig_shapes(fc, o));
     out.set("partial_area", num(problem.partial().area_fraction));
     out.set("n_constraints", problem.rows().len().to_string());
     let solver = CompletionSolver::new(solver, o, seed);
@@ -429,6 +484,9 @@ fn completion(
         ("n_clusters", r.n_clusters.map(|c| c.to_string())),
         ("iterations", r.iterations.map(|i| i.to_string())),
         ("dictionary", r.dictionary.clone()),
+        ("partial_residual", r.partial_residual.map(num)),
+        ("attempts", r.attempts.map(|a| a.to_string())),
+        ("attempt", r.attempt.map(str::to_string)),
     ];
     for (column, value) in optional {
         if let Some(v) = value {
@@ -441,6 +499,19 @@ fn completion(
     let positions = &r.positions;
     let d = problem.distortion(positions)?;
     set_distortion(out, &d, "");
+    // Gross failures: a part (limb, torso) misplaced on average by more
+    // than GROSS_FAILURE_DISTORTION √area.
+    let per_part = metrics::part_distortions(&d, parts)?;
+    let failed = per_part
+        .iter()
+        .filter(|p| p.1 > metrics::GROSS_FAILURE_DISTORTION)
+        .count();
+    out.set("failed_parts", failed.to_string());
+    out.set("gross_failure", if failed > 0 { "1" } else { "0" });
+    out.set(
+        "worst_part_error",
+        num(per_part.iter().map(|p| p.1).fold(0.0, f64::max)),
+    );
     // Curves. Distortion: share of template points within a relative
     // distance (√area units) of their true position; also in unit-sphere
     // units for the harness's cumulative plot.
@@ -485,7 +556,7 @@ fn completion(
 /// Fig. 3: automatic correspondence within an ambiguous feature group.
 fn permutation(fc: &FbtCase, o: &FbtOptions, seed: u64, out: &mut CaseResult) -> Result<()> {
     let params = o.params();
-    let setup = build(&fc.examples, &o.config(seed))?;
+    let setup = build_with_rig(&fc.examples, &rig_shapes(fc, o), &o.config(seed))?;
     let area = setup.graph.area();
     let k = o.group;
     let circles = FeatureOptions {
@@ -537,7 +608,7 @@ fn interpolation(
         format!("{};to {}", fc.example_ids.join(";"), fc.rest_ids[0]),
     );
     let params = o.params();
-    let setup = build(&fc.examples, &o.config(seed))?;
+    let setup = build_with_rig(&fc.examples, &rig_shapes(fc, o), &o.config(seed))?;
     let area = setup.graph.area();
     let circles = FeatureOptions {
         radius: o.full_target_radius,

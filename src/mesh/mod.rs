@@ -5,6 +5,7 @@
 //! turns raw data into a [`Mesh`] whose invariants every algorithm relies on:
 //! every face index is in range and every coordinate is finite.
 
+pub mod compact;
 pub mod io;
 pub mod primitives;
 pub mod set;

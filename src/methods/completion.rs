@@ -25,9 +25,9 @@ use crate::data::partial::{feature_points, make_partial, PartialOptions, Partial
 use crate::mesh::Mesh;
 use crate::ops::{mass_matrix, MassKind};
 use crate::register::{
-    build, circle_radii, feature_circle_constraints, metrics, nicp, ConstraintRows,
-    DictionaryExamples, FbtConfig, FbtParams, NicpOptions, ScaleMode, Schedule, StageConfig,
-    WeightChoice,
+    apply_rows, build_with_rig, circle_radii, feature_circle_constraints, metrics, nicp,
+    ConstraintRows, DictionaryExamples, FbtConfig, FbtParams, InitMethod, NicpOptions, ScaleMode,
+    Schedule, StageConfig, WeightChoice,
 };
 use crate::{Error, Point, Result};
 
@@ -77,10 +77,15 @@ pub struct FbtOptions {
     /// LBO eigenfunctions of the main stage (and of the `projection`
     /// dictionary).
     pub m: usize,
-    /// Segments of the skeleton weights.
-    pub segments: usize,
-    /// Shapes besides the reference the skeleton weights are learnt from.
+    /// Bones of the skeleton weights (`None`: chosen by the data, see
+    /// [`crate::skin::rigging::RigOptions`]).
+    pub bones: Option<usize>,
+    /// Shapes besides the reference and the target the skeleton weights
+    /// are learnt from (the same for every q).
     pub rig_poses: usize,
+    /// Last stage and clusters: the paper's articulated-shape pipeline
+    /// (skeleton) or the LBO-only variant.
+    pub pipeline: PipelineKind,
     /// Rotation clusters r.
     pub clusters: usize,
     /// Scale applied to the target (`scale` task).
@@ -118,8 +123,9 @@ impl Default for FbtOptions {
         FbtOptions {
             q: 4,
             m: 10,
-            segments: 12,
+            bones: config.rig.bones,
             rig_poses: 4,
+            pipeline: PipelineKind::default(),
             clusters: config.clusters,
             scale: 1.5,
             alpha: None,
@@ -149,10 +155,12 @@ impl FbtOptions {
 
     /// The pipeline configuration of the solving tasks.
     pub fn config(&self, seed: u64) -> FbtConfig {
-        let mut c = FbtConfig {
-            seed,
-            ..FbtConfig::default()
+        let base = match self.pipeline {
+            PipelineKind::Skeleton => FbtConfig::default(),
+            PipelineKind::Lbo => FbtConfig::lbo_only(),
         };
+        let mut c = FbtConfig { seed, ..base };
+        c.rig.bones = self.bones;
         c.main.weights = WeightChoice::Lbo { m: self.m };
         c.clusters = self.clusters;
         match self.dictionary_examples {
@@ -164,8 +172,10 @@ impl FbtOptions {
                 let one = |s: &StageConfig| -> StageConfig {
                     let m = match s.weights {
                         WeightChoice::Lbo { m } => m,
-                        // Not LBO stages of the default configuration.
-                        WeightChoice::Segments { .. } | WeightChoice::Biharmonic { .. } => 10,
+                        // The skeleton stage becomes the LBO-only
+                        // pipeline's rich stage (m = 15).
+                        WeightChoice::Skeleton => 15,
+                        WeightChoice::Biharmonic { .. } => 10,
                     };
                     StageConfig {
                         weights: WeightChoice::Lbo {
@@ -199,6 +209,9 @@ impl FbtOptions {
 #[derive(Clone, Debug)]
 pub struct CompletionProblem {
     examples: Vec<Mesh>,
+    /// Shapes the skeleton weights are learnt from (default: the examples
+    /// but the reference).
+    rig: Vec<Mesh>,
     target: Mesh,
     features: Vec<usize>,
     partial: PartialShape,
@@ -246,6 +259,7 @@ impl CompletionProblem {
         let (rows, y) = features.constraints(reference, &partial.mesh, &pairs, area)?;
         Ok(CompletionProblem {
             examples: examples.to_vec(),
+            rig: examples[1..].to_vec(),
             target: target.clone(),
             features: feats,
             partial,
@@ -259,6 +273,18 @@ impl CompletionProblem {
     /// The examples (reference first).
     pub fn examples(&self) -> &[Mesh] {
         &self.examples
+    }
+
+    /// The problem with the skeleton weights learnt from `rig` (other poses
+    /// of the class, never the target; see [`crate::register::build_with_rig`]).
+    pub fn with_rig_shapes(mut self, rig: Vec<Mesh>) -> Self {
+        self.rig = rig;
+        self
+    }
+
+    /// The shapes the skeleton weights are learnt from.
+    pub fn rig_shapes(&self) -> &[Mesh] {
+        &self.rig
     }
 
     /// The reference example (the template that is deformed).
@@ -345,6 +371,83 @@ pub struct FbtCompletion {
     pub schedule: Schedule,
     /// NICP after the feature registration (`None`: none).
     pub nicp: Option<NicpOptions>,
+    /// Remedies tried when the first attempt looks like a gross failure.
+    pub restarts: RestartOptions,
+}
+
+/// Remedies against gross failures of FBT's completion (a limb or the torso
+/// misplaced). The first attempt is the paper's procedure. When its
+/// *partial residual* — the mean distance from the partial target's
+/// vertices to the nearest vertex of the completed shape, over √area, a
+/// measure that needs no ground truth — exceeds `suspicious_residual`, the
+/// alternatives are solved too and the attempt with the lowest partial
+/// residual is kept:
+///
+/// 1. `aligned`: the partial target (and the constraint targets) rigidly
+///    pre-aligned onto the reference by the feature constraints
+///    (Kabsch on `Y` against `H V_ref`), solved there, the result mapped
+///    back;
+/// 2. `linear`: the initial transformations from Eq. 22 (least squares)
+///    instead of the elastic net (Eq. 23);
+/// 3. `aligned_linear`: both.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RestartOptions {
+    /// Partial residual (√area units) above which the alternatives run;
+    /// `0` always runs them, `f64::INFINITY` never.
+    pub suspicious_residual: f64,
+}
+
+/// Default [`RestartOptions::suspicious_residual`] (√area units).
+pub const DEFAULT_SUSPICIOUS_RESIDUAL: f64 = 0.01;
+
+impl Default for RestartOptions {
+    fn default() -> Self {
+        RestartOptions {
+            suspicious_residual: DEFAULT_SUSPICIOUS_RESIDUAL,
+        }
+    }
+}
+
+/// One FBT completion attempt (see [`RestartOptions`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Attempt {
+    Paper,
+    Aligned,
+    Linear,
+    AlignedLinear,
+}
+
+impl Attempt {
+    const ALL: [Attempt; 4] = [
+        Attempt::Paper,
+        Attempt::Aligned,
+        Attempt::Linear,
+        Attempt::AlignedLinear,
+    ];
+
+    fn name(self) -> &'static str {
+        match self {
+            Attempt::Paper => "paper",
+            Attempt::Aligned => "aligned",
+            Attempt::Linear => "linear",
+            Attempt::AlignedLinear => "aligned_linear",
+        }
+    }
+
+    fn aligned(self) -> bool {
+        matches!(self, Attempt::Aligned | Attempt::AlignedLinear)
+    }
+
+    fn linear(self) -> bool {
+        matches!(self, Attempt::Linear | Attempt::AlignedLinear)
+    }
+}
+
+/// Mean distance from `partial`'s vertices to the nearest of `positions`,
+/// over √area (no ground truth needed).
+pub fn partial_residual(partial: &Mesh, positions: &[Point], area: f64) -> Result<f64> {
+    let near = metrics::nearest_points(partial.vertices(), positions)?;
+    Ok(near.iter().map(|p| p.1).sum::<f64>() / near.len().max(1) as f64 / area.sqrt())
 }
 
 /// Der et al.'s reduced model on the FBT rotation clusters, in the same
@@ -394,6 +497,13 @@ pub struct CompletionOutcome {
     pub seconds_solve: Option<f64>,
     /// Nonrigid ICP (s).
     pub seconds_nicp: Option<f64>,
+    /// Mean distance from the partial target to the result (√area units,
+    /// [`partial_residual`]).
+    pub partial_residual: Option<f64>,
+    /// Attempts solved (FBT: 1 unless the first looked like a failure).
+    pub attempts: Option<usize>,
+    /// The attempt kept (see [`RestartOptions`]).
+    pub attempt: Option<&'static str>,
 }
 
 impl CompletionOutcome {
@@ -409,6 +519,9 @@ impl CompletionOutcome {
             seconds_precompute: None,
             seconds_solve: None,
             seconds_nicp: None,
+            partial_residual: None,
+            attempts: None,
+            attempt: None,
         }
     }
 }
@@ -422,6 +535,7 @@ impl CompletionSolver {
             params: opts.params(),
             schedule: Schedule::default(),
             nicp: opts.nicp.then(|| opts.nicp_options(seed)),
+            restarts: RestartOptions::default(),
         })
     }
 
@@ -457,45 +571,44 @@ impl CompletionSolver {
         match self {
             CompletionSolver::Fbt(s) => {
                 let t = Instant::now();
-                let setup = build(examples, &s.config)?;
+                let setup = build_with_rig(examples, problem.rig_shapes(), &s.config)?;
                 let seconds_precompute = t.elapsed().as_secs_f64();
                 let t = Instant::now();
                 let sys = setup.pipeline.systems(rows, &s.params)?;
-                let reg = sys.solve(y, &s.schedule)?;
-                let seconds_solve = t.elapsed().as_secs_f64();
-                let mut alpha = reg.alpha;
-                let (positions, seconds_nicp) = match &s.nicp {
-                    Some(icp) => {
-                        let t = Instant::now();
-                        let res = nicp(
-                            setup.pipeline.last(),
-                            &s.params,
-                            (rows, y),
-                            &problem.partial().mesh,
-                            &reg.t,
-                            reg.alpha,
-                            icp,
-                        )?;
-                        alpha = res.alpha;
-                        (res.positions, Some(t.elapsed().as_secs_f64()))
+                let seconds_factorise = t.elapsed().as_secs_f64();
+                let mut best: Option<FbtAttempt> = None;
+                let mut attempts = 0;
+                for a in Attempt::ALL {
+                    if let Some(b) = &best {
+                        if b.residual <= s.restarts.suspicious_residual {
+                            break;
+                        }
                     }
-                    None => (reg.positions.clone(), None),
-                };
+                    let r = s.attempt(a, &setup, &sys, problem)?;
+                    attempts += 1;
+                    if best.as_ref().is_none_or(|b| r.residual < b.residual) {
+                        best = Some(r);
+                    }
+                }
+                let b = best.ok_or_else(|| Error::invalid("no completion attempt ran"))?;
                 Ok(CompletionOutcome {
-                    init_positions: Some(reg.positions),
-                    alpha: Some(alpha),
+                    init_positions: Some(b.init_positions),
+                    alpha: Some(b.alpha),
                     dict_size: Some(setup.sizes.1),
                     n_clusters: Some(setup.pipeline.main().n_clusters()),
                     seconds_precompute: Some(seconds_precompute),
-                    seconds_solve: Some(seconds_solve),
-                    seconds_nicp,
-                    ..CompletionOutcome::new(positions)
+                    seconds_solve: Some(seconds_factorise + b.seconds_solve),
+                    seconds_nicp: b.seconds_nicp,
+                    partial_residual: Some(b.residual),
+                    attempts: Some(attempts),
+                    attempt: Some(b.attempt.name()),
+                    ..CompletionOutcome::new(b.positions)
                 })
             }
             CompletionSolver::Der(s) => {
                 // The same rotation clusters as FBT: those of the FBT setup
                 // of this configuration (not timed: it is FBT's).
-                let setup = build(examples, &s.config)?;
+                let setup = build_with_rig(examples, problem.rig_shapes(), &s.config)?;
                 let t = Instant::now();
                 let model = DerModel::new(examples, &setup.clusters)?;
                 let seconds_precompute = t.elapsed().as_secs_f64();
@@ -557,6 +670,107 @@ impl CompletionSolver {
     }
 }
 
+/// What one FBT completion attempt gave.
+struct FbtAttempt {
+    attempt: Attempt,
+    positions: Vec<Point>,
+    init_positions: Vec<Point>,
+    alpha: f64,
+    residual: f64,
+    seconds_solve: f64,
+    seconds_nicp: Option<f64>,
+}
+
+impl FbtCompletion {
+    /// Feature registration and NICP of `problem` as attempt `a` (see
+    /// [`RestartOptions`]); positions in the partial target's frame.
+    fn attempt(
+        &self,
+        a: Attempt,
+        setup: &crate::register::FbtSetup,
+        sys: &crate::register::PipelineSystems,
+        problem: &CompletionProblem,
+    ) -> Result<FbtAttempt> {
+        let (rows, y0) = problem.constraints();
+        let partial0 = &problem.partial().mesh;
+        // Rigid pre-alignment of the target onto the reference by the
+        // constraints: Y's rows against H V_ref.
+        let motion = if a.aligned() {
+            let at_ref = apply_rows(rows, problem.reference().vertices())?;
+            let pts = |m: &DMatrix<f64>| -> Vec<Point> {
+                (0..m.nrows())
+                    .map(|r| Point::new(m[(r, 0)], m[(r, 1)], m[(r, 2)]))
+                    .collect()
+            };
+            Some(crate::eval::procrustes(&pts(y0), &pts(&at_ref))?)
+        } else {
+            None
+        };
+        let (y, partial) = match &motion {
+            Some(m) => {
+                // Rows of H are weighted averages (weights summing to one),
+                // so a rigid motion of the target moves Y the same way.
+                let y = DMatrix::from_fn(y0.nrows(), 3, |r, c| {
+                    m.apply(&Point::new(y0[(r, 0)], y0[(r, 1)], y0[(r, 2)]))[c]
+                });
+                (y, partial0.map_vertices(|p| m.apply(p))?)
+            }
+            None => (y0.clone(), partial0.clone()),
+        };
+        let schedule = if a.linear() {
+            Schedule {
+                init: InitMethod::Linear,
+                ..self.schedule
+            }
+        } else {
+            self.schedule
+        };
+        let t = Instant::now();
+        let reg = sys.solve(&y, &schedule)?;
+        let seconds_solve = t.elapsed().as_secs_f64();
+        let mut alpha = reg.alpha;
+        let (positions, seconds_nicp) = match &self.nicp {
+            Some(icp) => {
+                let t = Instant::now();
+                let res = nicp(
+                    setup.pipeline.last(),
+                    &self.params,
+                    (rows, &y),
+                    &partial,
+                    &reg.t,
+                    reg.alpha,
+                    icp,
+                )?;
+                alpha = res.alpha;
+                (res.positions, Some(t.elapsed().as_secs_f64()))
+            }
+            None => (reg.positions.clone(), None),
+        };
+        let back = |p: Vec<Point>| -> Vec<Point> {
+            match &motion {
+                Some(m) => {
+                    let rt = m.rotation.transpose();
+                    p.iter()
+                        .map(|q| Point::from(rt * (q.coords - m.translation)))
+                        .collect()
+                }
+                None => p,
+            }
+        };
+        let positions = back(positions);
+        let residual = partial_residual(partial0, &positions, problem.area())?;
+        Ok(FbtAttempt {
+            attempt: a,
+            positions,
+            init_positions: back(reg.positions),
+            alpha,
+            residual,
+            seconds_solve,
+            seconds_nicp,
+        })
+    }
+}
+
 /// Dictionary of the `projection` task and of the main stage.
 #[derive(Clone, Copy, Debug, Default, serde::Deserialize, serde::Serialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
@@ -569,6 +783,20 @@ pub enum DictionaryKind {
     /// LBO atoms of the reference example only, with as many atoms as the
     /// example-based LBO dictionary of the same q and m (Table 2, Fig. 8 A).
     OneExample,
+}
+
+/// The solving pipeline of the FBT tasks.
+#[derive(Clone, Copy, Debug, Default, serde::Deserialize, serde::Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum PipelineKind {
+    /// The paper's articulated-shape pipeline: last stage the example-based
+    /// skeleton dictionary, rotation clusters = the skeleton's bones
+    /// ([`FbtConfig::default`]).
+    #[default]
+    Skeleton,
+    /// LBO only: last stage LBO m = 15, clusters from the main LBO weights
+    /// ([`FbtConfig::lbo_only`]).
+    Lbo,
 }
 
 /// Which examples the ARAP energy compares against.

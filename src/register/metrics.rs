@@ -91,3 +91,61 @@ pub fn correspondence_errors(
         })
         .collect()
 }
+
+/// A part (limb, torso, …) whose mean relative distortion exceeds this is
+/// misplaced: a gross failure of a completion (√area units).
+pub const GROSS_FAILURE_DISTORTION: f64 = 0.2;
+
+/// Mean relative distortion of every part: `labels[i]` is vertex `i`'s part
+/// (`0..`); parts without a vertex are skipped. Returns `(part, mean)` in
+/// part order.
+pub fn part_distortions(distortion: &[f64], labels: &[usize]) -> Result<Vec<(usize, f64)>> {
+    if distortion.len() != labels.len() {
+        return Err(Error::invalid(format!(
+            "{} distortions for {} part labels",
+            distortion.len(),
+            labels.len()
+        )));
+    }
+    let k = labels.iter().max().map_or(0, |m| m + 1);
+    let mut sum = vec![0.0; k];
+    let mut count = vec![0usize; k];
+    for (&d, &l) in distortion.iter().zip(labels) {
+        sum[l] += d;
+        count[l] += 1;
+    }
+    Ok((0..k)
+        .filter(|&p| count[p] > 0)
+        .map(|p| (p, sum[p] / count[p] as f64))
+        .collect())
+}
+
+/// Parts whose mean relative distortion exceeds `threshold` (see
+/// [`GROSS_FAILURE_DISTORTION`]).
+pub fn failed_parts(
+    distortion: &[f64],
+    labels: &[usize],
+    threshold: f64,
+) -> Result<Vec<(usize, f64)>> {
+    Ok(part_distortions(distortion, labels)?
+        .into_iter()
+        .filter(|&(_, d)| d > threshold)
+        .collect())
+}
+
+#[cfg(test)]
+mod part_tests {
+    use super::*;
+
+    #[test]
+    fn part_means_and_failures() {
+        let d = [0.1, 0.3, 0.5, 0.0, 0.0];
+        let l = [0, 0, 1, 3, 3];
+        let p = part_distortions(&d, &l).unwrap();
+        assert_eq!(p.len(), 3);
+        assert!((p[0].1 - 0.2).abs() < 1e-15 && p[1] == (1, 0.5) && p[2] == (3, 0.0));
+        let f = failed_parts(&d, &l, GROSS_FAILURE_DISTORTION).unwrap();
+        assert_eq!(f, vec![(1, 0.5)]);
+        assert!(part_distortions(&d, &l[..2]).is_err());
+    }
+}

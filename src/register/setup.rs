@@ -7,12 +7,23 @@
 //!
 //! | variant | change from [`FbtConfig::default`] |
 //! |---|---|
+//! | LBO only (non-articulated shapes; the named `lbo` variant) | [`FbtConfig::lbo_only`]: rich stage LBO m = 15, clusters from the main LBO weights |
 //! | example-based LBO dictionary (Table 2) | `main = StageConfig::lbo(m)` |
-//! | example-based skeleton dictionary (Table 2) | `weights: WeightChoice::Segments { .. }` (or `Biharmonic`) |
+//! | example-based skeleton dictionary (Table 2) | `weights: WeightChoice::Skeleton` |
 //! | one example, same atom count (Table 2, Fig. 8 A) | `examples: DictionaryExamples::First`, LBO m' = (1+3q)m/4 |
 //! | compare to one reference shape (Fig. 8 B) | `arap_examples: DictionaryExamples::First` |
 //! | α = 1 (Fig. 8 C) | `FbtParams { scale: ScaleMode::Fixed(1.0), .. }` |
-//! | skeleton clusters (Sec. 5) | `cluster_source: ClusterSource::Segments { .. }` |
+//! | skeleton clusters (Sec. 5, the default) | `cluster_source: ClusterSource::Skeleton` |
+//!
+//! **Default: the paper's articulated-shape pipeline.** Initialisation in
+//! LBO m = 4, main stage LBO m = 10 (k-medoids halves its example atoms),
+//! last stage the example-based *skeleton* dictionary, and rotation
+//! clusters = the skeleton's bones (each vertex in the cluster of its
+//! dominant bone): "these skeleton weights are also used to define the
+//! rotation clusters" (Sec. 5). The skeleton weights come from
+//! example-based skinning ([`crate::skin::rigging`]) of the reference
+//! against *rig shapes*: other poses of the class, never the target
+//! ([`build_with_rig`]; [`build`] rigs from the examples themselves).
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -23,6 +34,7 @@ use crate::data::synthetic::FaustStyle;
 use crate::mesh::Mesh;
 use crate::skin::dictionary::{Dictionary, SkinningWeights};
 use crate::skin::lbo::{lbo_basis, LboBasis};
+use crate::skin::rigging::{Rig, RigOptions};
 use crate::solve::EigenOptions;
 use crate::{Error, Result};
 
@@ -31,11 +43,12 @@ use crate::{Error, Result};
 pub enum WeightChoice {
     /// First `m` LBO eigenfunctions of the reference example.
     Lbo { m: usize },
-    /// Skeleton substitute: smoothed rotation segments of the examples
-    /// ([`SkinningWeights::segments`]).
-    Segments { segments: usize, width: f64 },
-    /// Skeleton substitute: bounded biharmonic weights of farthest-point
-    /// handles ([`SkinningWeights::biharmonic`]).
+    /// The paper's skeleton weights: bone weights of example-based skinning
+    /// of the rig shapes ([`SkinningWeights::skeleton`], options
+    /// [`FbtConfig::rig`]).
+    Skeleton,
+    /// Bounded biharmonic weights of farthest-point handles
+    /// ([`SkinningWeights::biharmonic`]; not the paper's, an ablation).
     Biharmonic { handles: usize },
 }
 
@@ -73,12 +86,13 @@ impl StageConfig {
 /// Where the rotation clusters come from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ClusterSource {
-    /// k-means on the main stage's weights.
+    /// k-means (r clusters) on the main stage's weights.
     MainWeights,
-    /// k-means on the rich stage's weights (the paper: skeleton weights).
+    /// k-means (r clusters) on the rich stage's weights.
     RichWeights,
-    /// k-means on smoothed rotation segments with this many segments.
-    Segments { segments: usize, width: f64 },
+    /// The skeleton's bones: each vertex in the cluster of its dominant bone
+    /// (r = the number of bones; `clusters` is not used).
+    Skeleton,
 }
 
 /// Everything needed to build an [`FbtPipeline`].
@@ -97,13 +111,16 @@ pub struct FbtConfig {
     /// Number of rotation clusters r.
     pub clusters: usize,
     pub cluster_source: ClusterSource,
-    /// Seed of k-means, k-medoids and segments.
+    /// Example-based skinning of the skeleton weights.
+    pub rig: RigOptions,
+    /// Seed of k-means and k-medoids.
     pub seed: u64,
     /// Eigensolver settings.
     pub eigen: EigenOptions,
 }
 
 impl Default for FbtConfig {
+    /// The paper's pipeline for articulated shapes (see the module docs).
     fn default() -> Self {
         FbtConfig {
             init: Some(StageConfig::lbo(4)),
@@ -111,13 +128,43 @@ impl Default for FbtConfig {
                 reduce: Some(0.5),
                 ..StageConfig::lbo(10)
             },
-            rich: Some(StageConfig::lbo(15)),
+            rich: Some(StageConfig {
+                weights: WeightChoice::Skeleton,
+                examples: DictionaryExamples::All,
+                reduce: None,
+            }),
             arap_examples: DictionaryExamples::All,
             clusters: 20,
-            cluster_source: ClusterSource::MainWeights,
+            cluster_source: ClusterSource::Skeleton,
+            rig: RigOptions::default(),
             seed: 0,
             eigen: EigenOptions::default(),
         }
+    }
+}
+
+impl FbtConfig {
+    /// The LBO-only variant (non-articulated shapes, Sec. 5: "for
+    /// non-articulated objects, we increase the number of eigenfunctions"):
+    /// rich stage LBO m = 15, r = `clusters` k-means clusters of the main
+    /// stage's LBO weights. Needs no rig shapes.
+    pub fn lbo_only() -> Self {
+        FbtConfig {
+            rich: Some(StageConfig::lbo(15)),
+            cluster_source: ClusterSource::MainWeights,
+            ..FbtConfig::default()
+        }
+    }
+
+    /// Whether any stage or the clusters use the skeleton weights.
+    pub fn uses_skeleton(&self) -> bool {
+        self.cluster_source == ClusterSource::Skeleton
+            || self
+                .init
+                .iter()
+                .chain([&self.main])
+                .chain(self.rich.iter())
+                .any(|s| s.weights == WeightChoice::Skeleton)
     }
 }
 
@@ -130,6 +177,8 @@ pub struct FbtSetup {
     /// `None` if no stage uses LBO).
     pub lbo: Option<LboBasis>,
     pub clusters: Vec<usize>,
+    /// The skeleton rig, when a stage or the clusters use it.
+    pub rig: Option<Rig>,
     /// Dictionary sizes b of (init, main, rich).
     pub sizes: (Option<usize>, usize, Option<usize>),
     /// Wall time of the whole precomputation (s).
@@ -140,6 +189,7 @@ fn stage_weights(
     choice: WeightChoice,
     examples: &[Mesh],
     lbo: Option<&LboBasis>,
+    skeleton: Option<&SkinningWeights>,
     seed: u64,
 ) -> Result<SkinningWeights> {
     let reference = &examples[0];
@@ -148,15 +198,9 @@ fn stage_weights(
             let b = lbo.ok_or_else(|| Error::invalid("LBO basis missing"))?;
             Ok(SkinningWeights::lbo(&b.truncated(m)?))
         }
-        WeightChoice::Segments { segments, width } => {
-            if examples.len() < 2 {
-                return Err(Error::invalid(
-                    "segment (skeleton) weights need at least two examples: \
-                     the rotations between them define the segments",
-                ));
-            }
-            SkinningWeights::segments(reference, &examples[1..], segments, width, seed)
-        }
+        WeightChoice::Skeleton => skeleton
+            .cloned()
+            .ok_or_else(|| Error::invalid("skeleton weights missing")),
         WeightChoice::Biharmonic { handles } => {
             SkinningWeights::biharmonic(reference, handles, seed)
         }
@@ -190,8 +234,19 @@ fn stage_dictionary(
 }
 
 /// Builds the pipeline for `examples` (q ≥ 1 meshes with one face list;
-/// the first is the reference).
+/// the first is the reference); the skeleton weights, if used, are learnt
+/// from the examples other than the reference (see [`build_with_rig`]).
 pub fn build(examples: &[Mesh], cfg: &FbtConfig) -> Result<FbtSetup> {
+    let rig_shapes = examples.get(1..).unwrap_or(&[]);
+    build_with_rig(examples, rig_shapes, cfg)
+}
+
+/// [`build`] with the skeleton weights learnt from `rig_shapes` (poses of
+/// the reference's class, same connectivity, never the target): the same
+/// skeleton for every q. Errors when the configuration uses the skeleton
+/// and `rig_shapes` is empty (q = 1 without other poses: use
+/// [`FbtConfig::lbo_only`]).
+pub fn build_with_rig(examples: &[Mesh], rig_shapes: &[Mesh], cfg: &FbtConfig) -> Result<FbtSetup> {
     let start = Instant::now();
     if examples.is_empty() {
         return Err(Error::invalid("FBT needs at least one example"));
@@ -210,34 +265,49 @@ pub fn build(examples: &[Mesh], cfg: &FbtConfig) -> Result<FbtSetup> {
         .iter()
         .filter_map(|s| match s.weights {
             WeightChoice::Lbo { m } => Some(m),
-            WeightChoice::Segments { .. } | WeightChoice::Biharmonic { .. } => None,
+            WeightChoice::Skeleton | WeightChoice::Biharmonic { .. } => None,
         })
         .max();
     let lbo = m_lbo
         .map(|m| lbo_basis(&examples[0], m, &cfg.eigen))
         .transpose()?;
-    let w_init = cfg
-        .init
-        .map(|s| stage_weights(s.weights, examples, lbo.as_ref(), cfg.seed))
-        .transpose()?;
-    let w_main = stage_weights(cfg.main.weights, examples, lbo.as_ref(), cfg.seed)?;
-    let w_rich = cfg
-        .rich
-        .map(|s| stage_weights(s.weights, examples, lbo.as_ref(), cfg.seed))
-        .transpose()?;
+    let (skeleton, rig) = if cfg.uses_skeleton() {
+        if rig_shapes.is_empty() {
+            return Err(Error::invalid(
+                "the skeleton dictionary learns its bones from other poses of the class: none \
+                 was given (q = 1 without rig shapes); give rig shapes or use the LBO-only \
+                 pipeline",
+            ));
+        }
+        let (w, r) = SkinningWeights::skeleton(&examples[0], rig_shapes, &cfg.rig)?;
+        (Some(w), Some(r))
+    } else {
+        (None, None)
+    };
+    let sw = |s: &StageConfig| {
+        stage_weights(
+            s.weights,
+            examples,
+            lbo.as_ref(),
+            skeleton.as_ref(),
+            cfg.seed,
+        )
+    };
+    let w_init = cfg.init.as_ref().map(sw).transpose()?;
+    let w_main = sw(&cfg.main)?;
+    let w_rich = cfg.rich.as_ref().map(sw).transpose()?;
     let clusters = match cfg.cluster_source {
         ClusterSource::MainWeights => w_main.rotation_clusters(cfg.clusters, cfg.seed)?,
         ClusterSource::RichWeights => w_rich
             .as_ref()
             .ok_or_else(|| Error::invalid("cluster source RichWeights without a rich stage"))?
             .rotation_clusters(cfg.clusters, cfg.seed)?,
-        ClusterSource::Segments { segments, width } => stage_weights(
-            WeightChoice::Segments { segments, width },
-            examples,
-            None,
-            cfg.seed,
-        )?
-        .rotation_clusters(cfg.clusters, cfg.seed)?,
+        ClusterSource::Skeleton => {
+            let r = rig
+                .as_ref()
+                .ok_or_else(|| Error::invalid("skeleton clusters without a rig"))?;
+            compact_labels(&r.labels)
+        }
     };
     let model = |s: &StageConfig, w: &SkinningWeights| -> Result<Arc<FbtModel>> {
         let d = stage_dictionary(s, examples, w, cfg.seed)?;
@@ -263,9 +333,23 @@ pub fn build(examples: &[Mesh], cfg: &FbtConfig) -> Result<FbtSetup> {
         pipeline,
         lbo,
         clusters,
+        rig,
         sizes,
         seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+/// Labels renumbered `0..k` in order of first appearance (bones that lost
+/// every vertex as a dominant bone leave no empty cluster).
+fn compact_labels(labels: &[usize]) -> Vec<usize> {
+    let mut map = std::collections::HashMap::new();
+    labels
+        .iter()
+        .map(|&l| {
+            let k = map.len();
+            *map.entry(l).or_insert(k)
+        })
+        .collect()
 }
 
 /// The synthetic TOSCA-style class: subject 0 of a one-subject synthetic

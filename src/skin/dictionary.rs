@@ -60,6 +60,7 @@ use crate::ops::{cotan_laplacian, mass_matrix, MassKind};
 use crate::skin::bbw::{BbwOptions, Biharmonic, WeightMode};
 use crate::skin::groups::{group_features, GroupFeatures};
 use crate::skin::lbo::LboBasis;
+use crate::skin::rigging::{example_skinning, Rig, RigOptions};
 use crate::solve::dense::tr_mul;
 use crate::solve::kmeans::kmeans_with;
 use crate::solve::kmedoids::{column_distances, kmedoids, KMedoids};
@@ -79,6 +80,9 @@ pub enum WeightKind {
     Segments,
     /// Biharmonic weights of farthest-point handles ("skeleton" substitute).
     Biharmonic,
+    /// Bone weights of example-based skinning ([`crate::skin::rigging`]),
+    /// the paper's "skeleton" weights.
+    Skeleton,
     /// Anything else given by the caller.
     Custom,
 }
@@ -240,6 +244,17 @@ impl SkinningWeights {
             }
         }
         Self::custom(mesh, w, kind)
+    }
+
+    /// The paper's "skeleton" weights: the bone weights of example-based
+    /// skinning of `examples` against `reference`
+    /// ([`crate::skin::rigging::example_skinning`]), with the rig they come
+    /// from (its dominant-bone labels can serve as rotation clusters, FBT
+    /// Sec. 5). Errors as `example_skinning` and [`SkinningWeights::custom`].
+    pub fn skeleton(reference: &Mesh, examples: &[Mesh], opts: &RigOptions) -> Result<(Self, Rig)> {
+        let rig = example_skinning(reference, examples, opts)?;
+        let w = Self::custom(reference, rig.weights.clone(), WeightKind::Skeleton)?;
+        Ok((w, rig))
     }
 
     /// "Skeleton" weights from bounded biharmonic weights (per-handle

@@ -694,6 +694,7 @@ fn register(
         arap_examples: DictionaryExamples::All,
         clusters: opts.clusters.min(n),
         cluster_source: ClusterSource::MainWeights,
+        rig: Default::default(),
         seed: opts.seed,
         eigen: opts.eigen.clone(),
     };
