@@ -115,6 +115,24 @@ fn tiny_fbt_config_runs_through_the_harness() {
     assert!(after < before, "NICP: {after} vs {before}");
     assert!(get("completion", "partial_area") > 0.5);
     assert!(get("completion", "corr_error_mean") < 0.1);
+    // Correspondence errors: `corr_error_mean` is the geodesic one; the
+    // Euclidean one (the paper's Fig. 7 right) never exceeds it.
+    let (geo, euc) = (
+        get("completion", "corr_error_mean_geodesic"),
+        get("completion", "corr_error_mean_euclidean"),
+    );
+    assert_eq!(geo, get("completion", "corr_error_mean"));
+    assert!(
+        euc <= geo && euc >= 0.0,
+        "Euclidean {euc} vs geodesic {geo}"
+    );
+    let kind = |m: &str| rs.iter().find(|r| r["method"] == m).unwrap()["dictionary_kind"].clone();
+    assert_eq!(kind("projection-q4"), "lbo");
+    assert_eq!(
+        kind("completion"),
+        "",
+        "dictionary_kind is a projection column"
+    );
     // Permutation: two assignments tried; interpolation reproduces its ends.
     assert_eq!(get("permutation", "perm_count"), 2.0);
     let r = rs.iter().find(|r| r["method"] == "interpolation").unwrap();
@@ -122,14 +140,39 @@ fn tiny_fbt_config_runs_through_the_harness() {
         assert!(e < 1e-6, "endpoint error {e}");
     }
     assert!(get("interpolation", "arap_energy") > 0.0);
-    assert!(get("timing", "seconds_iteration") > 0.0);
-    assert!(get("timing", "seconds_solve") >= get("timing", "seconds_iteration"));
+    // Timing: one E_total iteration in each stage of the default pipeline
+    // (init, main, rich dictionaries), and the full schedule.
+    let d = deformlab::register::FbtConfig::default();
+    assert!(
+        d.init.is_some() && d.rich.is_some(),
+        "the default has 3 stages"
+    );
+    for stage in ["init", "main", "rich"] {
+        let t = get("timing", &format!("seconds_iteration_{stage}"));
+        assert!(t > 0.0, "{stage}: {t}");
+    }
+    assert!(get("timing", "seconds_solve") >= get("timing", "seconds_iteration_main"));
+    let sizes = rs.iter().find(|r| r["method"] == "timing").unwrap()["dict_sizes"].clone();
+    assert_eq!(
+        sizes
+            .split('/')
+            .filter(|b| b.parse::<usize>().is_ok())
+            .count(),
+        3
+    );
     // Curves and plots.
     let curves = std::fs::read_to_string(dir.join("curves.csv")).unwrap();
-    assert!(curves.contains("correspondence_area") && curves.contains("cumulative_area"));
+    for c in [
+        "correspondence_geodesic_area",
+        "correspondence_euclidean_area",
+        "cumulative_area",
+    ] {
+        assert!(curves.contains(c), "no {c} curve");
+    }
     for f in [
         "curves.png",
         "curves_correspondence.png",
+        "curves_correspondence_euclidean.png",
         "line.png",
         "table.md",
         "table.csv",

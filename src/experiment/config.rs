@@ -47,6 +47,19 @@
 //! render_cases = 1
 //! [[outputs.plots]]
 //! kind = "cumulative"
+//! [[outputs.plots]]               # one figure, one panel per curve, shared legend
+//! kind = "curve_panels"
+//! curves = ["cumulative_area", "correspondence_euclidean_area"]
+//! [[outputs.plots]]               # rows × columns of metric means (PNG + CSV + Markdown)
+//! kind = "pivot"
+//! rows = "q"
+//! columns = "dictionary_kind"
+//! metric = "rel_distortion_max"
+//! scale = 100                   # percent
+//! digits = 2
+//! lead = ["dict_size"]          # per-row columns before the pivoted ones
+//! lead_from = "lbo"             # ... taken from the `lbo` results only
+//! labels = { lbo = "LBO" }      # display names of values, columns, curves
 //! ```
 //!
 //! Errors name the file, the key (e.g. `methods[1].n_candidates`), the line
@@ -716,6 +729,14 @@ pub enum PlotKind {
     /// Markdown + CSV table of group means (`metrics`; rows also split by
     /// the `x` column when set).
     Table,
+    /// One figure of line-chart panels, one per curve of curves.csv
+    /// (`curves`), mean curve per method group, shared legend (FBT Fig. 7).
+    CurvePanels,
+    /// A pivot table (PNG + CSV + Markdown): one row per value of the
+    /// cases.csv column `rows`, one column per value of `columns`, cells the
+    /// mean of `metric` over the results with both values (× `scale`,
+    /// `digits` decimals); `lead` columns first (FBT Table 2).
+    Pivot,
 }
 
 /// One `[[outputs.plots]]` entry.
@@ -751,6 +772,38 @@ pub struct PlotSpec {
     /// the metrics).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub y_label: Option<String>,
+    /// Curve panels: the curves.csv curves drawn, one panel each, in order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub curves: Vec<String>,
+    /// Pivot: the cases.csv column whose values make the rows.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rows: Option<String>,
+    /// Pivot: the cases.csv column whose values make the columns.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub columns: Option<String>,
+    /// Pivot: the cases.csv column averaged in the cells.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub metric: Option<String>,
+    /// Pivot: factor applied to the cell means (e.g. 100 for percent;
+    /// default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<f64>,
+    /// Pivot: decimals shown in the PNG and Markdown (default 3; the CSV
+    /// keeps 10 significant digits).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub digits: Option<usize>,
+    /// Pivot: cases.csv columns shown per row before the pivoted columns
+    /// (mean over the row's results, not scaled), e.g. the dictionary size.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub lead: Vec<String>,
+    /// Pivot: take the `lead` columns only from the results whose `columns`
+    /// value is this one (default: all of the row's results).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lead_from: Option<String>,
+    /// Pivot and curve panels: display names (pivot: of column values and
+    /// column names; curve panels: of curves and method groups).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub labels: BTreeMap<String, String>,
 }
 
 /// A resolved method: a library value ([`crate::methods`]).
@@ -1086,7 +1139,14 @@ fn check_dataset(c: &LoadedConfig) -> Result<()> {
 
 fn check_outputs(c: &LoadedConfig) -> Result<()> {
     for (i, p) in c.config.outputs.plots.iter().enumerate() {
-        for m in p.metrics.iter().chain(p.x.iter()).chain(p.by.iter()) {
+        let columns = p.metrics.iter().chain(p.x.iter()).chain(p.by.iter());
+        let pivot = p
+            .rows
+            .iter()
+            .chain(p.columns.iter())
+            .chain(p.metric.iter())
+            .chain(p.lead.iter());
+        for m in columns.chain(pivot) {
             if !CASE_COLUMNS.contains(&m.as_str()) {
                 return Err(bad(
                     &c.path,
@@ -1116,6 +1176,7 @@ fn check_outputs(c: &LoadedConfig) -> Result<()> {
                 ));
             }
         }
+        check_plot_kind(c, i, p)?;
         if let Some(s) = &p.show {
             if s != "results" && s != "fits" {
                 return Err(bad(
@@ -1125,6 +1186,87 @@ fn check_outputs(c: &LoadedConfig) -> Result<()> {
                 ));
             }
         }
+    }
+    Ok(())
+}
+
+/// The keys a plot kind needs, and keys that belong to other kinds.
+fn check_plot_kind(c: &LoadedConfig, i: usize, p: &PlotSpec) -> Result<()> {
+    let key = |k: &str| format!("outputs.plots[{i}].{k}");
+    let pivot = p.kind == PlotKind::Pivot;
+    if p.kind == PlotKind::CurvePanels {
+        if p.curves.is_empty() {
+            return Err(bad(
+                &c.path,
+                key("curves"),
+                "curve panels need `curves`: curves.csv curve names, one panel each",
+            ));
+        }
+        if let Some(k) = p.curves.iter().find(|k| !valid_name(k)) {
+            return Err(bad(
+                &c.path,
+                key("curves"),
+                format!("{k:?} is not a curve name"),
+            ));
+        }
+    } else if !p.curves.is_empty() {
+        return Err(bad(
+            &c.path,
+            key("curves"),
+            "only `kind = \"curve_panels\"` takes `curves`",
+        ));
+    }
+    for (k, set) in [
+        ("rows", p.rows.is_some()),
+        ("columns", p.columns.is_some()),
+        ("metric", p.metric.is_some()),
+    ] {
+        if pivot && !set {
+            return Err(bad(
+                &c.path,
+                key(k),
+                "pivot tables need `rows`, `columns` and `metric` (cases.csv columns)",
+            ));
+        }
+        if !pivot && set {
+            return Err(bad(
+                &c.path,
+                key(k),
+                "only `kind = \"pivot\"` takes this key",
+            ));
+        }
+    }
+    let pivot_only = [
+        ("scale", p.scale.is_some()),
+        ("digits", p.digits.is_some()),
+        ("lead", !p.lead.is_empty()),
+        ("lead_from", p.lead_from.is_some()),
+    ];
+    if let Some((k, _)) = pivot_only.iter().find(|(_, set)| *set && !pivot) {
+        return Err(bad(
+            &c.path,
+            key(k),
+            "only `kind = \"pivot\"` takes this key",
+        ));
+    }
+    if let Some(s) = p.scale {
+        if !(s.is_finite() && s != 0.0) {
+            return Err(bad(
+                &c.path,
+                key("scale"),
+                format!("expected a finite non-zero factor, got {s}"),
+            ));
+        }
+    }
+    if p.digits.is_some_and(|d| d > 10) {
+        return Err(bad(&c.path, key("digits"), "expected 0..=10"));
+    }
+    if !p.labels.is_empty() && !pivot && p.kind != PlotKind::CurvePanels {
+        return Err(bad(
+            &c.path,
+            key("labels"),
+            "only pivot tables and curve panels take `labels`",
+        ));
     }
     Ok(())
 }

@@ -17,7 +17,21 @@
 //! group of the first `kind = "identity"` method (the target left unchanged)
 //! is always drawn, even when the spec's `methods` list leaves it out, as a
 //! dashed grey line labelled "identity (B unchanged)": the floor every
-//! method must beat.
+//! method must beat. `_correspondence.png` is the geodesic correspondence
+//! curve (`correspondence_geodesic_area`, Kim et al.; results of older
+//! runs call it `correspondence_area`), `_correspondence_euclidean.png` the
+//! Euclidean one (`correspondence_euclidean_area`, FBT Fig. 7 right).
+//!
+//! **Curve panels** (`kind = "curve_panels"`, `curves = [...]`): one figure,
+//! one titled panel per named curve of `curves.csv` (mean curve per method
+//! group; the identity floor as above), one legend below shared by every
+//! panel; `labels` renames panels (by curve name) and legend entries (by
+//! method group).
+//!
+//! **Pivot tables** (`kind = "pivot"`, `rows`, `columns`, `metric`, optional
+//! `scale`, `digits`, `lead`, `lead_from`, `labels`): the mean of `metric`
+//! over the results with each (row value, column value) pair, as PNG / SVG,
+//! CSV (scaled means, 10 significant digits) and Markdown.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -29,8 +43,8 @@ use crate::eval::{vertex_errors, ErrorScale};
 use crate::mesh::io::read_mesh;
 use crate::mesh::Mesh;
 use crate::plot::{
-    save_bar_chart, save_figure, save_line_chart, BarChart, Camera, Coloring, Figure, LineChart,
-    Panel, Series,
+    save_bar_chart, save_figure, save_line_chart, save_line_panels, save_table, BarChart, Camera,
+    Coloring, Figure, LineChart, LinePanels, Panel, Series, Table,
 };
 use crate::{Error, Result};
 
@@ -91,7 +105,14 @@ pub fn column_label(c: &str) -> String {
         "rel_distortion_median_init" => {
             "median relative distortion before NICP (√area units)".into()
         }
-        "corr_error_mean" => "mean geodesic correspondence error (√area units)".into(),
+        "corr_error_mean" | "corr_error_mean_geodesic" => {
+            "mean geodesic correspondence error (√area units)".into()
+        }
+        "corr_error_mean_euclidean" => "mean Euclidean correspondence error (√area units)".into(),
+        "seconds_iteration_init" => "one E_total iteration, init dictionary (s)".into(),
+        "seconds_iteration_main" => "one E_total iteration, main dictionary (s)".into(),
+        "seconds_iteration_rich" => "one E_total iteration, rich dictionary (s)".into(),
+        "seconds_solve" => "full solve after precomputation (s)".into(),
         "alpha" => "recovered global scale α".into(),
         "alpha_true" => "applied scale".into(),
         "alpha_error" => "|α − scale| / scale".into(),
@@ -214,7 +235,7 @@ pub fn make_plots(dir: &Path) -> Result<Vec<String>> {
             .collect();
         // Cumulative curves always show the identity floor, even when the
         // spec lists its methods without it.
-        if spec.kind == PlotKind::Cumulative {
+        if spec.kind == PlotKind::Cumulative || spec.kind == PlotKind::CurvePanels {
             if let Some(ig) = &ctx.identity_group {
                 if !ctx.groups.iter().any(|(g, _)| g == ig) {
                     if let Some(e) = all_groups.iter().find(|(g, _)| g == ig) {
@@ -232,6 +253,8 @@ pub fn make_plots(dir: &Path) -> Result<Vec<String>> {
             PlotKind::Panels => panels(&ctx, spec),
             PlotKind::Clusters => clusters(&ctx, spec),
             PlotKind::Table => table(&ctx, spec),
+            PlotKind::CurvePanels => curve_panels(&ctx, spec),
+            PlotKind::Pivot => pivot(&ctx, spec),
         };
         ctx.warn(&format!("{:?}", spec.kind).to_lowercase(), r);
     }
@@ -251,6 +274,15 @@ fn default_plots(c: &Config) -> Vec<PlotSpec> {
         log_y: None,
         by: None,
         y_label: None,
+        curves: Vec::new(),
+        rows: None,
+        columns: None,
+        metric: None,
+        scale: None,
+        digits: None,
+        lead: Vec::new(),
+        lead_from: None,
+        labels: BTreeMap::new(),
     };
     let mut v = Vec::new();
     if c.methods.iter().any(|m| m.kind == MethodKind::Fbt) {
@@ -308,69 +340,25 @@ fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             "_distortion",
         ),
         (
-            "correspondence_area",
+            "correspondence_geodesic_area",
             "geodesic error bound (√area units)",
             "correspondences within the bound (%)",
             "_correspondence",
         ),
+        (
+            "correspondence_euclidean_area",
+            "Euclidean error bound (√area units)",
+            "correspondences within the bound (%)",
+            "_correspondence_euclidean",
+        ),
     ] {
-        let mut series = Vec::new();
-        let mut floor = None;
-        let mut curve_cases = std::collections::BTreeSet::new();
-        for (g, methods) in &ctx.groups {
-            // Mean over the case × method curves of the group.
-            let mut acc: BTreeMap<String, (f64, f64, usize)> = BTreeMap::new();
-            let mut order: Vec<String> = Vec::new();
-            for r in &ctx.curves {
-                if r.get("curve").map(String::as_str) != Some(curve)
-                    || !methods.iter().any(|m| Some(m) == r.get("method"))
-                {
-                    continue;
-                }
-                let (Some(x), Some(y)) = (f(r, "x"), f(r, "y")) else {
-                    continue;
-                };
-                let key = r["x"].clone();
-                let e = acc.entry(key.clone()).or_insert_with(|| {
-                    order.push(key.clone());
-                    (x, 0.0, 0)
-                });
-                e.1 += y;
-                e.2 += 1;
-            }
-            if order.is_empty() {
-                continue;
-            }
-            for r in &ctx.curves {
-                if r.get("curve").map(String::as_str) == Some(curve)
-                    && methods.iter().any(|m| Some(m) == r.get("method"))
-                {
-                    if let Some(c) = r.get("case_id") {
-                        curve_cases.insert(c.clone());
-                    }
-                }
-            }
-            let mut pts: Vec<(f64, f64)> = order
-                .iter()
-                .map(|k| {
-                    let (x, s, n) = acc[k];
-                    (x, 100.0 * s / n as f64)
-                })
-                .collect();
-            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-            let is_floor = ctx.identity_group.as_ref() == Some(g);
-            if is_floor {
-                floor = Some(series.len());
-            }
-            series.push(Series {
-                label: if is_floor {
-                    IDENTITY_LABEL.to_string()
-                } else {
-                    g.clone()
-                },
-                x: pts.iter().map(|p| p.0).collect(),
-                y: pts.iter().map(|p| p.1).collect(),
-            });
+        let MeanCurves {
+            mut series,
+            floor,
+            cases: curve_cases,
+        } = mean_curves(ctx, curve);
+        for sr in &mut series {
+            sr.y.iter_mut().for_each(|y| *y *= 100.0);
         }
         if series.is_empty() {
             if curve == "cumulative_unit" {
@@ -384,7 +372,10 @@ fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                 (Some(t), _) => format!("{t} ({})", suffix.trim_start_matches('_')),
                 (None, "_distortion") => format!("{}: cumulative area distortion", ctx.title),
                 (None, "_correspondence") => {
-                    format!("{}: correspondence error (Kim et al.)", ctx.title)
+                    format!("{}: geodesic correspondence error (Kim et al.)", ctx.title)
+                }
+                (None, "_correspondence_euclidean") => {
+                    format!("{}: Euclidean correspondence error", ctx.title)
                 }
                 (None, _) => format!("{}: cumulative error to ground truth", ctx.title),
             },
@@ -392,7 +383,7 @@ fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                 "{}; mean curve over the {} case(s) with {}",
                 ctx.caption,
                 curve_cases.len(),
-                if suffix == "_distortion" || suffix == "_correspondence" {
+                if suffix == "_distortion" || suffix.starts_with("_correspondence") {
                     "results"
                 } else {
                     "ground truth"
@@ -417,6 +408,363 @@ fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         save_line_chart(&chart, &stem)?;
     }
     Ok(())
+}
+
+/// Mean curves of the shown method groups (see [`mean_curves`]).
+struct MeanCurves {
+    /// One series per group with the curve, y as stored (a fraction for
+    /// cumulative curves).
+    series: Vec<Series>,
+    /// Index of the identity group's series, labelled [`IDENTITY_LABEL`].
+    floor: Option<usize>,
+    /// Case ids with the curve.
+    cases: std::collections::BTreeSet<String>,
+}
+
+/// Whether a curves.csv row's curve is `wanted` (results written before the
+/// geodesic correspondence curve was named `correspondence_geodesic_area`
+/// call it `correspondence_area`).
+fn is_curve(r: &Row, wanted: &str) -> bool {
+    match r.get("curve").map(String::as_str) {
+        Some(c) if c == wanted => true,
+        Some("correspondence_area") => wanted == "correspondence_geodesic_area",
+        _ => false,
+    }
+}
+
+/// The mean over the case × method curves `curve` of each shown group, in
+/// group order, sorted by x.
+fn mean_curves(ctx: &Ctx, curve: &str) -> MeanCurves {
+    let mut series = Vec::new();
+    let mut floor = None;
+    let mut cases = std::collections::BTreeSet::new();
+    for (g, methods) in &ctx.groups {
+        let mut acc: BTreeMap<String, (f64, f64, usize)> = BTreeMap::new();
+        for r in &ctx.curves {
+            if !is_curve(r, curve) || !methods.iter().any(|m| Some(m) == r.get("method")) {
+                continue;
+            }
+            if let Some(c) = r.get("case_id") {
+                cases.insert(c.clone());
+            }
+            let (Some(x), Some(y)) = (f(r, "x"), f(r, "y")) else {
+                continue;
+            };
+            let e = acc.entry(r["x"].clone()).or_insert((x, 0.0, 0));
+            e.1 += y;
+            e.2 += 1;
+        }
+        if acc.is_empty() {
+            continue;
+        }
+        let mut pts: Vec<(f64, f64)> = acc.values().map(|&(x, s, n)| (x, s / n as f64)).collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let is_floor = ctx.identity_group.as_ref() == Some(g);
+        if is_floor {
+            floor = Some(series.len());
+        }
+        series.push(Series {
+            label: if is_floor {
+                IDENTITY_LABEL.to_string()
+            } else {
+                g.clone()
+            },
+            x: pts.iter().map(|p| p.0).collect(),
+            y: pts.iter().map(|p| p.1).collect(),
+        });
+    }
+    MeanCurves {
+        series,
+        floor,
+        cases,
+    }
+}
+
+/// Panel title, x label, y label of a curves.csv curve, and whether it is
+/// cumulative (a share, drawn in percent).
+fn curve_info(curve: &str) -> (String, String, String, bool) {
+    let share = |t: &str, x: &str, y: &str| (t.to_string(), x.to_string(), y.to_string(), true);
+    match curve {
+        "cumulative_unit" => share(
+            "Distance to the true position",
+            "distance bound (unit-sphere units)",
+            "points within the bound (%)",
+        ),
+        "cumulative_area" => share(
+            "Distortion",
+            "relative distance to the true position (√area units)",
+            "points within the distance (%)",
+        ),
+        "cumulative_area_rigid" => share(
+            "Distortion after rigid alignment",
+            "relative distance to the true position (√area units)",
+            "points within the distance (%)",
+        ),
+        "distortion_area" => share(
+            "Area distortion",
+            "bound on |log(face area / area on B)|",
+            "faces within the bound (%)",
+        ),
+        "correspondence_euclidean_area" => share(
+            "Correspondence (Euclidean)",
+            "Euclidean distance to the true point (√area units)",
+            "correspondences within the distance (%)",
+        ),
+        "correspondence_geodesic_area" | "correspondence_area" => share(
+            "Correspondence (geodesic)",
+            "geodesic distance to the true point (√area units)",
+            "correspondences within the distance (%)",
+        ),
+        c => (c.replace('_', " "), "x".into(), "y".into(), false),
+    }
+}
+
+/// One figure with a panel per curve of `spec.curves` (mean curve per
+/// method group, shared legend); curves absent from curves.csv are left
+/// out with a warning.
+fn curve_panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
+    let mut panels = Vec::new();
+    let mut missing = Vec::new();
+    let mut cases = std::collections::BTreeSet::new();
+    for curve in &spec.curves {
+        let mc = mean_curves(ctx, curve);
+        if mc.series.is_empty() {
+            missing.push(curve.as_str());
+            continue;
+        }
+        cases.extend(mc.cases);
+        let (title, x_label, y_label, share) = curve_info(curve);
+        let mut series = mc.series;
+        for sr in &mut series {
+            if let Some(l) = spec.labels.get(&sr.label) {
+                sr.label = l.clone();
+            }
+            if share {
+                sr.y.iter_mut().for_each(|y| *y *= 100.0);
+            }
+        }
+        panels.push(LineChart {
+            title: spec.labels.get(curve).cloned().unwrap_or(title),
+            caption: None,
+            x_label,
+            y_label,
+            series,
+            y_range: share.then_some((0.0, 100.0)),
+            floor: mc.floor,
+            ..Default::default()
+        });
+    }
+    let n_cases = ctx
+        .rows
+        .iter()
+        .filter_map(|r| r.get("case_id"))
+        .collect::<std::collections::BTreeSet<_>>()
+        .len();
+    if panels.is_empty() {
+        return Err(Error::invalid(format!(
+            "none of the curves {} in curves.csv",
+            spec.curves.join(", ")
+        )));
+    }
+    let names: Vec<&str> = panels.iter().map(|p| p.title.as_str()).collect();
+    let fig = LinePanels {
+        title: spec
+            .title
+            .clone()
+            .unwrap_or_else(|| format!("{}: {}", ctx.title, names.join(", "))),
+        caption: Some(format!(
+            "{}; mean curve per method over {}",
+            ctx.caption,
+            if cases.len() == n_cases {
+                "the cases".to_string()
+            } else {
+                format!("the {} case(s) with results", cases.len())
+            }
+        )),
+        panels,
+    };
+    save_line_panels(&fig, &ctx.stem(spec, "curve_panels"))?;
+    if !missing.is_empty() {
+        return Err(Error::invalid(format!(
+            "no {} curves in curves.csv; drawn without them",
+            missing.join(", ")
+        )));
+    }
+    Ok(())
+}
+
+/// A pivot table (see [`PlotKind::Pivot`]): `<file>.png` / `.svg` / `.csv`
+/// / `.md`. Rows are sorted numerically when every row value is a number,
+/// otherwise kept in order of appearance (method groups in config order,
+/// then cases); columns in order of appearance. A cell mixing the results
+/// of two method groups is an error (restrict `methods`).
+fn pivot(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
+    let need = |k: &Option<String>, name: &str| {
+        k.clone()
+            .ok_or_else(|| Error::invalid(format!("pivot tables need `{name}`")))
+    };
+    let (rk, ck, metric) = (
+        need(&spec.rows, "rows")?,
+        need(&spec.columns, "columns")?,
+        need(&spec.metric, "metric")?,
+    );
+    let scale = spec.scale.unwrap_or(1.0);
+    let digits = spec.digits.unwrap_or(3);
+    let mut row_keys: Vec<String> = Vec::new();
+    let mut col_keys: Vec<String> = Vec::new();
+    // (row, column) → (values, groups); (row, lead column) → values.
+    type Cell = (Vec<f64>, Vec<String>);
+    let mut cells: BTreeMap<(String, String), Cell> = BTreeMap::new();
+    let mut leads: BTreeMap<(String, String), Vec<f64>> = BTreeMap::new();
+    for (g, methods) in &ctx.groups {
+        for r in ctx.rows_of_group(g) {
+            if !r.get("method").is_some_and(|m| methods.contains(m)) {
+                continue;
+            }
+            let (Some(rv), Some(cv)) = (r.get(&rk), r.get(&ck)) else {
+                continue;
+            };
+            if rv.is_empty() || cv.is_empty() {
+                continue;
+            }
+            if !row_keys.contains(rv) {
+                row_keys.push(rv.clone());
+            }
+            if !col_keys.contains(cv) {
+                col_keys.push(cv.clone());
+            }
+            if let Some(x) = f(r, &metric) {
+                let cell = cells.entry((rv.clone(), cv.clone())).or_default();
+                cell.0.push(x);
+                if !cell.1.contains(g) {
+                    cell.1.push(g.clone());
+                }
+            }
+            if spec.lead_from.as_ref().is_none_or(|v| v == cv) {
+                for l in &spec.lead {
+                    if let Some(x) = f(r, l) {
+                        leads.entry((rv.clone(), l.clone())).or_default().push(x);
+                    }
+                }
+            }
+        }
+    }
+    if cells.is_empty() {
+        return Err(Error::invalid(format!(
+            "no finished results with {rk}, {ck} and {metric}"
+        )));
+    }
+    if let Some(((rv, cv), (_, gs))) = cells.iter().find(|(_, c)| c.1.len() > 1) {
+        return Err(Error::invalid(format!(
+            "cell ({rk} = {rv}, {ck} = {cv}) mixes the method groups {}; \
+             list the methods of one per cell in `methods`",
+            gs.join(", ")
+        )));
+    }
+    let numbers: Option<Vec<f64>> = row_keys.iter().map(|k| k.parse::<f64>().ok()).collect();
+    if let Some(nums) = numbers {
+        let mut order: Vec<usize> = (0..row_keys.len()).collect();
+        order.sort_by(|&a, &b| nums[a].total_cmp(&nums[b]));
+        row_keys = order.into_iter().map(|i| row_keys[i].clone()).collect();
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let label = |k: &str, default: String| spec.labels.get(k).cloned().unwrap_or(default);
+    let header: Vec<String> = std::iter::once(label(&rk, rk.clone()))
+        .chain(spec.lead.iter().map(|l| label(l, l.clone())))
+        .chain(col_keys.iter().map(|c| label(c, c.replace('_', " "))))
+        .collect();
+    let mut csv_out = csv::Writer::from_writer(Vec::new());
+    let csv_err = |e: csv::Error| Error::invalid(format!("pivot CSV: {e}"));
+    let csv_head: Vec<&String> = std::iter::once(&rk)
+        .chain(spec.lead.iter())
+        .chain(col_keys.iter())
+        .collect();
+    csv_out.write_record(&csv_head).map_err(csv_err)?;
+    let mut shown: Vec<Vec<String>> = Vec::new();
+    let mut counts: Vec<usize> = Vec::new();
+    for rv in &row_keys {
+        let mut line = vec![rv.clone()];
+        let mut rec = vec![rv.clone()];
+        for l in &spec.lead {
+            match leads.get(&(rv.clone(), l.clone())) {
+                Some(v) => {
+                    let x = mean(v);
+                    line.push(if x.fract() == 0.0 {
+                        format!("{x:.0}")
+                    } else {
+                        format!("{x:.1}")
+                    });
+                    rec.push(super::store::num(x));
+                }
+                None => {
+                    line.push("–".into());
+                    rec.push(String::new());
+                }
+            }
+        }
+        for cv in &col_keys {
+            match cells.get(&(rv.clone(), cv.clone())) {
+                Some((v, _)) => {
+                    let x = mean(v) * scale;
+                    counts.push(v.len());
+                    line.push(format!("{x:.digits$}"));
+                    rec.push(super::store::num(x));
+                }
+                None => {
+                    line.push("–".into());
+                    rec.push(String::new());
+                }
+            }
+        }
+        csv_out.write_record(&rec).map_err(csv_err)?;
+        shown.push(line);
+    }
+    let what = if scale == 1.0 {
+        metric.clone()
+    } else {
+        format!("{metric} × {scale}")
+    };
+    let n_note = match (counts.iter().min(), counts.iter().max()) {
+        (Some(a), Some(b)) if a == b => format!("{a} result(s) per cell"),
+        (Some(a), Some(b)) => format!("{a} to {b} results per cell"),
+        _ => String::new(),
+    };
+    let caption = format!(
+        "{}; cells: mean of {what} over cases, {n_note}",
+        ctx.caption
+    );
+    let title = spec
+        .title
+        .clone()
+        .unwrap_or_else(|| format!("{}: {metric} by {rk} and {ck}", ctx.title));
+    let mut md = format!(
+        "| {} |\n|{}\n",
+        header.join(" | "),
+        "---|".repeat(header.len())
+    );
+    for line in &shown {
+        md.push_str(&format!("| {} |\n", line.join(" | ")));
+    }
+    let lead_note = match (&spec.lead_from, spec.lead.is_empty()) {
+        (Some(v), false) => format!(" {} from the {ck} = {v} results.", spec.lead.join(", ")),
+        _ => String::new(),
+    };
+    md.push_str(&format!("\n{title}. {caption}.{lead_note}\n"));
+    let stem = ctx.stem(spec, "pivot");
+    super::store::write_file(&stem.with_extension("md"), md.as_bytes(), true)?;
+    let bytes = csv_out
+        .into_inner()
+        .map_err(|e| Error::invalid(format!("pivot CSV: {e}")))?;
+    super::store::write_file(&stem.with_extension("csv"), &bytes, true)?;
+    save_table(
+        &Table {
+            title,
+            caption: Some(caption),
+            columns: header,
+            rows: shown,
+        },
+        &stem,
+    )
 }
 
 fn group_stats(ctx: &Ctx, g: &str, col: &str) -> Option<(f64, f64)> {

@@ -6,6 +6,8 @@
 //!
 //! - [`save_line_chart`], [`save_bar_chart`]: 1200 × 800 PNG (2×
 //!   supersampled) and SVG, written atomically; see [`charts`] for layout.
+//! - [`save_line_panels`]: several line charts side by side in one figure
+//!   with a shared legend ([`LinePanels`]).
 //! - [`save_table`]: a table (timings) as PNG and SVG sized to its content.
 //! - [`save_figure`] ([`save_figure_with`] for [`RenderOptions`]): a row of
 //!   software-rendered mesh panels ([`render`]) with key points and colour
@@ -13,6 +15,7 @@
 //!   ([`Camera::FAUST`], [`Camera::SYNTHETIC`], [`Camera::TOSCA`],
 //!   [`Camera::CACTUS`], [`Camera::SUMNER`], [`Camera::ARMADILLO`]).
 //! - In memory, without files: [`line_chart_image`], [`bar_chart_image`],
+//!   [`line_panels_image`],
 //!   [`render_figure`], [`render_mesh`] (with a [`View`]).
 //! - [`colormap`] / [`ColorMap`], [`keypoint_color`], [`series_style`]: the
 //!   colours used, for matching them elsewhere.
@@ -36,7 +39,7 @@ use std::path::Path;
 
 use crate::{Mesh, Result};
 
-pub use charts::{bar_chart_image, line_chart_image, CHART_SIZE};
+pub use charts::{bar_chart_image, line_chart_image, line_panels_image, CHART_SIZE};
 pub use demo::demo;
 pub use figure::{render_figure, save_figure_with, DEFAULT_PANEL_SIZE};
 pub use output::Image;
@@ -80,6 +83,29 @@ pub struct LineChart {
     /// beneath the other series, which keep the styles they would have
     /// without it ([`FLOOR_STYLE`]).
     pub floor: Option<usize>,
+}
+
+/// Line charts side by side in one figure (e.g. FBT Fig. 7: distortion
+/// and correspondence curves), each panel titled by its chart's `title`
+/// (the charts' captions are not drawn), with one legend below the panels
+/// shared by all: series with the same label are drawn alike in every
+/// panel, and a label that is some panel's `floor` is drawn as the floor in
+/// all of them.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct LinePanels {
+    /// Title drawn above the panels.
+    pub title: String,
+    /// Optional caption line.
+    pub caption: Option<String>,
+    /// The panels, left to right.
+    pub panels: Vec<LineChart>,
+}
+
+/// Writes `stem.png` and `stem.svg` (atomically): 760 × 640 pixels per
+/// panel plus the header and the legend. Errors as [`save_line_chart`] does,
+/// naming the panel's series, and on a figure without panels.
+pub fn save_line_panels(figure: &LinePanels, stem: &Path) -> Result<()> {
+    charts::save_line_panels(figure, stem)
 }
 
 /// A grouped bar chart: one group per category, one bar per series.
