@@ -72,7 +72,8 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::methods::completion::{
-    CompareWith, DictionaryKind, FbtOptions, FeatureOptions, PipelineKind, SolverKind,
+    CompareWith, DictionaryKind, FbtOptions, FeatureOptions, PipelineKind, RestartOptions,
+    SolverKind,
 };
 use crate::methods::{
     BdtOptions, Clustering, Examples, KeypointSource, Pool, Strategy, TargetCorrespondence,
@@ -491,6 +492,10 @@ pub struct FbtSpec {
     /// Correspondence queries per case (Kim et al. curve, default 300).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub queries: Option<usize>,
+    /// FBT completion: retry a suspicious first attempt with the remedies
+    /// of [`crate::methods::completion::RestartOptions`] (default true).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub restarts: Option<bool>,
     /// Deformation model of the `completion` task: `"fbt"` (default),
     /// `"der"` or `"amberg"`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -536,6 +541,12 @@ impl FbtSpec {
             group: self.group.unwrap_or(d.group),
             repeats: self.repeats.unwrap_or(d.repeats),
             queries: self.queries.unwrap_or(d.queries),
+            restarts: match self.restarts {
+                Some(false) => RestartOptions {
+                    suspicious_residual: f64::INFINITY,
+                },
+                _ => d.restarts,
+            },
         }
     }
 

@@ -61,13 +61,13 @@ use crate::mesh::Mesh;
 use crate::methods::completion::{CompletionProblem, CompletionSolver, FbtOptions, FeatureOptions};
 use crate::methods::completion::{DictionaryKind, SolverKind};
 use crate::register::{
-    apply_rows, best_permutation, build_with_rig, feature_row_groups, interpolate, metrics,
+    apply_rows, best_permutation, build_with_rig, skeleton_rig, feature_row_groups, interpolate, metrics,
     vertex_rows, IterOptions, Schedule,
 };
-use crate::skin::dictionary::{Dictionary, SkinningWeights};
+use crate::skin::dictionary::{Dictionary, SkinningWeights, WeightKind};
 use crate::skin::lbo::lbo_basis;
 use crate::skin::lbs::points_from_matrix;
-use crate::skin::rigging::{example_skinning, RigOptions};
+use crate::skin::rigging::RigOptions;
 use crate::solve::EigenOptions;
 use crate::{Error, Point, Result};
 
@@ -197,7 +197,7 @@ fn class_parts(col: &Collection, fc: &FbtCase, o: &FbtOptions) -> Result<Vec<usi
         bones: o.bones,
         ..RigOptions::default()
     };
-    Ok(example_skinning(&fc.examples[0], &rig, &opts)?.labels)
+    Ok(skeleton_rig(&fc.examples[0], &rig, &opts)?.labels.clone())
 }
 
 fn save(dir: &std::path::Path, name: &str, mesh: &Mesh) -> Result<()> {
@@ -313,7 +313,8 @@ fn projection(fc: &FbtCase, spec: &FbtSpec, o: &FbtOptions, out: &mut CaseResult
                 bones: o.bones,
                 ..RigOptions::default()
             };
-            let (w, r) = SkinningWeights::skeleton(reference, &rig, &opts)?;
+            let r = skeleton_rig(reference, &rig, &opts)?;
+            let w = SkinningWeights::custom(reference, r.weights.clone(), WeightKind::Skeleton)?;
             out.set("n_bones", r.bones().to_string());
             out.set("rig_rms", num(r.rms_error));
             Dictionary::from_meshes(&fc.examples, &w)?

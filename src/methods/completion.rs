@@ -115,6 +115,8 @@ pub struct FbtOptions {
     pub repeats: usize,
     /// Correspondence queries per case (Kim et al. curve).
     pub queries: usize,
+    /// Remedies against gross failures of FBT's completion.
+    pub restarts: RestartOptions,
 }
 
 impl Default for FbtOptions {
@@ -139,6 +141,7 @@ impl Default for FbtOptions {
             group: 4,
             repeats: 5,
             queries: 300,
+            restarts: RestartOptions::default(),
         }
     }
 }
@@ -398,7 +401,7 @@ pub struct RestartOptions {
 }
 
 /// Default [`RestartOptions::suspicious_residual`] (√area units).
-pub const DEFAULT_SUSPICIOUS_RESIDUAL: f64 = 0.01;
+pub const DEFAULT_SUSPICIOUS_RESIDUAL: f64 = 0.02;
 
 impl Default for RestartOptions {
     fn default() -> Self {
@@ -535,7 +538,7 @@ impl CompletionSolver {
             params: opts.params(),
             schedule: Schedule::default(),
             nicp: opts.nicp.then(|| opts.nicp_options(seed)),
-            restarts: RestartOptions::default(),
+            restarts: opts.restarts,
         })
     }
 
