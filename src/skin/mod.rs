@@ -6,6 +6,7 @@ pub mod dictionary;
 pub mod groups;
 pub mod lbo;
 pub mod lbs;
+pub mod rigging;
 
 pub use groups::{rotation_groups, FeatureKind, GroupFeatures};
 pub use lbs::{lbs, transforms_from_stacked, transforms_to_stacked, Affine, LbsMatrix};
