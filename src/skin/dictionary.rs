@@ -33,10 +33,12 @@
 //! **Weighting functions** ([`SkinningWeights`]):
 //! - LBO eigenfunctions ([`crate::skin::lbo`]), the paper's main choice;
 //! - "skeleton" weights. The paper's come from an example-based rigging
-//!   package (Le & Deng 2014) that deformlab does not have. Two
-//!   substitutes are built from what it has, both documented on their
-//!   constructors: [`SkinningWeights::segments`] (the default: vertices are
-//!   clustered by the rotations they undergo across the examples — a rigid
+//!   package (Le & Deng 2014); [`SkinningWeights::skeleton`] builds them by
+//!   example-based skinning ([`crate::skin::rigging`]: rigid bones fitted
+//!   to the examples, SSDR weights). Two earlier substitutes remain, both
+//!   documented on their constructors: [`SkinningWeights::segments`] (the
+//!   pipeline's default for now: vertices are clustered by the rotations
+//!   they undergo across the examples — a rigid
 //!   segmentation like Le & Deng's bones — and the segment indicators are
 //!   smoothed by heat diffusion and normalised to a partition of unity) and
 //!   [`SkinningWeights::biharmonic`] (bounded biharmonic weights of handles
@@ -60,6 +62,7 @@ use crate::ops::{cotan_laplacian, mass_matrix, MassKind};
 use crate::skin::bbw::{BbwOptions, Biharmonic, WeightMode};
 use crate::skin::groups::{group_features, GroupFeatures};
 use crate::skin::lbo::LboBasis;
+use crate::skin::rigging::{example_skinning, Rig, RigOptions};
 use crate::solve::dense::tr_mul;
 use crate::solve::kmeans::kmeans_with;
 use crate::solve::kmedoids::{column_distances, kmedoids, KMedoids};
@@ -79,6 +82,9 @@ pub enum WeightKind {
     Segments,
     /// Biharmonic weights of farthest-point handles ("skeleton" substitute).
     Biharmonic,
+    /// Bone weights of example-based skinning ([`crate::skin::rigging`]),
+    /// the paper's "skeleton" weights.
+    Skeleton,
     /// Anything else given by the caller.
     Custom,
 }
@@ -240,6 +246,17 @@ impl SkinningWeights {
             }
         }
         Self::custom(mesh, w, kind)
+    }
+
+    /// The paper's "skeleton" weights: the bone weights of example-based
+    /// skinning of `examples` against `reference`
+    /// ([`crate::skin::rigging::example_skinning`]), with the rig they come
+    /// from (its dominant-bone labels can serve as rotation clusters, FBT
+    /// Sec. 5). Errors as `example_skinning` and [`SkinningWeights::custom`].
+    pub fn skeleton(reference: &Mesh, examples: &[Mesh], opts: &RigOptions) -> Result<(Self, Rig)> {
+        let rig = example_skinning(reference, examples, opts)?;
+        let w = Self::custom(reference, rig.weights.clone(), WeightKind::Skeleton)?;
+        Ok((w, rig))
     }
 
     /// "Skeleton" weights from bounded biharmonic weights (per-handle
