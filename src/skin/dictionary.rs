@@ -33,10 +33,12 @@
 //! **Weighting functions** ([`SkinningWeights`]):
 //! - LBO eigenfunctions ([`crate::skin::lbo`]), the paper's main choice;
 //! - "skeleton" weights. The paper's come from an example-based rigging
-//!   package (Le & Deng 2014) that deformlab does not have. Two
-//!   substitutes are built from what it has, both documented on their
-//!   constructors: [`SkinningWeights::segments`] (the default: vertices are
-//!   clustered by the rotations they undergo across the examples — a rigid
+//!   package (Le & Deng 2014); [`SkinningWeights::skeleton`] builds them by
+//!   example-based skinning ([`crate::skin::rigging`]: rigid bones fitted
+//!   to the examples, SSDR weights). Two earlier substitutes remain, both
+//!   documented on their constructors: [`SkinningWeights::segments`] (the
+//!   pipeline's default for now: vertices are clustered by the rotations
+//!   they undergo across the examples — a rigid
 //!   segmentation like Le & Deng's bones — and the segment indicators are
 //!   smoothed by heat diffusion and normalised to a partition of unity) and
 //!   [`SkinningWeights::biharmonic`] (bounded biharmonic weights of handles
