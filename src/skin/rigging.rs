@@ -534,8 +534,7 @@ impl Clusters {
     }
 
     /// Splits bone `b` (vertices `members`) with a new bone seeded at the
-    /// breadth-first neighbourhood (`m` vertices) of `seed`; returns the
-    /// residual of the split bone's vertices afterwards.
+    /// breadth-first neighbourhood (`m` vertices) of `seed`.
     fn split_at(
         &mut self,
         prob: &Problem,
@@ -543,7 +542,7 @@ impl Clusters {
         seed: usize,
         m: usize,
         members: &[usize],
-    ) -> Result<f64> {
+    ) -> Result<()> {
         let new = self.bones;
         self.bones += 1;
         for f in &mut self.fits {
@@ -598,10 +597,7 @@ impl Clusters {
         if sizes[b] == 0 || sizes[new] == 0 {
             self.compact();
         }
-        Ok(members
-            .iter()
-            .map(|&i| prob.residual(&self.fits, i, self.labels[i]))
-            .sum())
+        Ok(())
     }
 
     /// Splits and refines until there are `target` bones; returns whether
