@@ -37,7 +37,6 @@ pub mod data;
 pub mod error;
 pub mod eval;
 pub mod experiment;
-pub(crate) mod memo;
 pub mod mesh;
 pub mod methods;
 pub mod ops;

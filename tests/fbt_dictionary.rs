@@ -137,7 +137,12 @@ fn dictionary_atoms_reduction_and_change_of_dictionaries() {
 #[test]
 fn skeleton_weights_are_a_smooth_partition_of_unity() {
     let meshes = synthetic_class(1, 0).unwrap();
-    let w = SkinningWeights::segments(&meshes[0], &meshes[1..6], 12, 0.05, 0).unwrap();
+    let opts = deformlab::skin::rigging::RigOptions {
+        bones: Some(12),
+        ..Default::default()
+    };
+    let (w, rig) = SkinningWeights::skeleton(&meshes[0], &meshes[1..6], &opts).unwrap();
+    assert_eq!(rig.bones(), 12);
     assert_eq!(w.weights.ncols(), 12);
     for row in w.weights.row_iter() {
         assert!((row.sum() - 1.0).abs() < 1e-9);

@@ -2,6 +2,7 @@
 
 pub mod correspondence;
 pub mod folders;
+pub(crate) mod memo;
 pub mod partial;
 pub mod synthetic;
 

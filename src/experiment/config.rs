@@ -593,13 +593,23 @@ impl FbtSpec {
                 return e("group", "expected at most `features` features");
             }
         }
-        if self.task == FbtTask::Projection && self.dictionary == Some(DictionaryKind::Skeleton) {
-            if self.m.is_some() {
-                return e(
-                    "m",
-                    "does not apply to the skeleton dictionary (use `bones`)",
-                );
-            }
+        if self.task == FbtTask::Projection
+            && self.dictionary == Some(DictionaryKind::Skeleton)
+            && self.m.is_some()
+        {
+            return e(
+                "m",
+                "does not apply to the skeleton dictionary (use `bones`)",
+            );
+        }
+        if self.pipeline == Some(PipelineKind::Lbo)
+            && self.task != FbtTask::Projection
+            && (self.bones.is_some() || self.rig_poses.is_some())
+        {
+            return e(
+                "bones",
+                "bones / rig_poses configure the skeleton; pipeline = \"lbo\" has none",
+            );
         }
         if self.task == FbtTask::Projection && self.pipeline.is_some() {
             return e(

@@ -61,8 +61,8 @@ use crate::mesh::Mesh;
 use crate::methods::completion::{CompletionProblem, CompletionSolver, FbtOptions, FeatureOptions};
 use crate::methods::completion::{DictionaryKind, SolverKind};
 use crate::register::{
-    apply_rows, best_permutation, build_with_rig, skeleton_rig, feature_row_groups, interpolate, metrics,
-    vertex_rows, IterOptions, Schedule,
+    apply_rows, best_permutation, build_with_rig, feature_row_groups, interpolate, metrics,
+    skeleton_rig, vertex_rows, IterOptions, Schedule,
 };
 use crate::skin::dictionary::{Dictionary, SkinningWeights, WeightKind};
 use crate::skin::lbo::lbo_basis;

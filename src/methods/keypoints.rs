@@ -8,7 +8,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::memo::{meshes_hash, Memo};
+use crate::data::memo::{meshes_hash, Memo};
 use crate::mesh::Mesh;
 use crate::ops::geodesic::EdgeGraph;
 use crate::ops::{

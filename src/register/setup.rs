@@ -33,12 +33,12 @@ use std::time::Instant;
 
 use super::model::{ArapGraph, FbtModel};
 use super::pipeline::FbtPipeline;
+use crate::data::memo::{meshes_hash, Memo};
 use crate::data::synthetic::FaustStyle;
 use crate::mesh::Mesh;
+use crate::skin::dictionary::WeightKind;
 use crate::skin::dictionary::{Dictionary, SkinningWeights};
 use crate::skin::lbo::{lbo_basis, LboBasis};
-use crate::memo::{meshes_hash, Memo};
-use crate::skin::dictionary::WeightKind;
 use crate::skin::rigging::{example_skinning, Rig, RigOptions};
 use crate::solve::EigenOptions;
 use crate::{Error, Result};

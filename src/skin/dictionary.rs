@@ -35,14 +35,11 @@
 //! - "skeleton" weights. The paper's come from an example-based rigging
 //!   package (Le & Deng 2014); [`SkinningWeights::skeleton`] builds them by
 //!   example-based skinning ([`crate::skin::rigging`]: rigid bones fitted
-//!   to the examples, SSDR weights). Two earlier substitutes remain, both
-//!   documented on their constructors: [`SkinningWeights::segments`] (the
-//!   pipeline's default for now: vertices are clustered by the rotations
-//!   they undergo across the examples — a rigid
-//!   segmentation like Le & Deng's bones — and the segment indicators are
-//!   smoothed by heat diffusion and normalised to a partition of unity) and
-//!   [`SkinningWeights::biharmonic`] (bounded biharmonic weights of handles
-//!   placed by farthest point sampling).
+//!   to the examples, SSDR weights) — the FBT pipeline's last stage and
+//!   clusters by default ([`crate::register::FbtConfig`]). The earlier
+//!   segment stand-in (heat-smoothed k-means segments of rotation
+//!   features) is removed; [`SkinningWeights::biharmonic`] (bounded
+//!   biharmonic weights of farthest-point handles) remains as an ablation.
 //!
 //! **Reduction (Sec. 4.4).** The example atoms are clustered by k-medoids
 //! ([`crate::solve::kmedoids`]) on Euclidean distances between atom columns;
@@ -60,13 +57,11 @@ use nalgebra::DMatrix;
 use crate::mesh::Mesh;
 use crate::ops::{cotan_laplacian, mass_matrix, MassKind};
 use crate::skin::bbw::{BbwOptions, Biharmonic, WeightMode};
-use crate::skin::groups::{group_features, GroupFeatures};
 use crate::skin::lbo::LboBasis;
 use crate::skin::rigging::{example_skinning, Rig, RigOptions};
 use crate::solve::dense::tr_mul;
 use crate::solve::kmeans::kmeans_with;
 use crate::solve::kmedoids::{column_distances, kmedoids, KMedoids};
-use crate::solve::{SparseCholesky, SparseMatrix};
 use crate::{Error, Point, Result};
 
 /// Relative ridge of the normal equations of [`Dictionary::project`] and
@@ -78,9 +73,7 @@ pub const PROJECTION_RIDGE: f64 = 1e-10;
 pub enum WeightKind {
     /// Laplace–Beltrami eigenfunctions ("example-based LBO dictionary").
     Lbo,
-    /// Smoothed rotation-segment indicators ("skeleton" substitute).
-    Segments,
-    /// Biharmonic weights of farthest-point handles ("skeleton" substitute).
+    /// Biharmonic weights of farthest-point handles (an ablation).
     Biharmonic,
     /// Bone weights of example-based skinning ([`crate::skin::rigging`]),
     /// the paper's "skeleton" weights.
@@ -154,98 +147,6 @@ impl SkinningWeights {
             area,
             kind,
         })
-    }
-
-    /// "Skeleton" weights from the examples (the default substitute for the
-    /// paper's rigging package, see the module docs):
-    ///
-    /// 1. per-vertex rotation logs of every example relative to `reference`
-    ///    (deformation gradients + polar decomposition,
-    ///    [`crate::ops::deformation_features`]), plus the scale/shear
-    ///    features weighted 0.1 — BDT's rotation features — are clustered
-    ///    by seeded k-means into `segments` near-rigid parts;
-    /// 2. each part's indicator `χ_s` is smoothed by one implicit heat step
-    ///    `(M + t L) u_s = M χ_s` with `t = (width · √A)²`;
-    /// 3. the rows are normalised to sum to one (partition of unity, all
-    ///    weights in [0, 1]).
-    ///
-    /// `examples` must share `reference`'s connectivity (at least one).
-    pub fn segments(
-        reference: &Mesh,
-        examples: &[Mesh],
-        segments: usize,
-        width: f64,
-        seed: u64,
-    ) -> Result<Self> {
-        let n = reference.n_vertices();
-        if segments == 0 || segments > n {
-            return Err(Error::invalid(format!(
-                "cannot make {segments} segments of {n} vertices"
-            )));
-        }
-        if !(width.is_finite() && width > 0.0) {
-            return Err(Error::invalid(format!(
-                "segment blend width must be positive, got {width}"
-            )));
-        }
-        let feats = group_features(
-            reference,
-            examples,
-            &DMatrix::zeros(n, 1),
-            GroupFeatures::ROTATION_SCALE,
-        )?;
-        let labels =
-            kmeans_with(&feats, segments, seed, &crate::skin::groups::GROUP_KMEANS)?.labels;
-        Self::from_labels(reference, &labels, segments, width, WeightKind::Segments)
-    }
-
-    /// Smoothed indicators of a vertex labelling (steps 2–3 of
-    /// [`SkinningWeights::segments`]); labels in `0..n_labels`.
-    pub fn from_labels(
-        mesh: &Mesh,
-        labels: &[usize],
-        n_labels: usize,
-        width: f64,
-        kind: WeightKind,
-    ) -> Result<Self> {
-        let n = mesh.n_vertices();
-        if labels.len() != n {
-            return Err(Error::invalid(format!(
-                "{} labels for {n} vertices",
-                labels.len()
-            )));
-        }
-        if let Some(&l) = labels.iter().find(|&&l| l >= n_labels) {
-            return Err(Error::invalid(format!("label {l} ≥ {n_labels}")));
-        }
-        let mass = mass_matrix(mesh, MassKind::Voronoi);
-        let area: f64 = mass.iter().sum();
-        let t = (width * area.sqrt()).powi(2);
-        let l = cotan_laplacian(mesh);
-        let mut trip = Vec::with_capacity(l.nnz() + n);
-        for (i, j, &v) in l.triplet_iter() {
-            trip.push((i, j, t * v));
-        }
-        for (i, &m) in mass.iter().enumerate() {
-            trip.push((i, i, m));
-        }
-        let a: SparseMatrix = crate::solve::sparse_from_triplets(n, n, trip);
-        let chol = SparseCholesky::new(&a)?;
-        let mut rhs = DMatrix::zeros(n, n_labels);
-        for (i, &s) in labels.iter().enumerate() {
-            rhs[(i, s)] = mass[i];
-        }
-        let mut w = chol.try_solve(&rhs)?;
-        for mut row in w.row_iter_mut() {
-            for x in row.iter_mut() {
-                *x = x.max(0.0);
-            }
-            let s: f64 = row.sum();
-            if s > 0.0 {
-                row /= s;
-            }
-        }
-        Self::custom(mesh, w, kind)
     }
 
     /// The paper's "skeleton" weights: the bone weights of example-based

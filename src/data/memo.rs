@@ -38,7 +38,11 @@ impl<T> Memo<T> {
         Memo(std::sync::OnceLock::new())
     }
 
-    pub(crate) fn get_or(&self, key: (u64, String), f: impl FnOnce() -> Result<T>) -> Result<Arc<T>> {
+    pub(crate) fn get_or(
+        &self,
+        key: (u64, String),
+        f: impl FnOnce() -> Result<T>,
+    ) -> Result<Arc<T>> {
         let memo = self.0.get_or_init(Default::default);
         if let Some(s) = memo.lock().ok().and_then(|m| m.get(&key).cloned()) {
             return Ok(s);
@@ -50,4 +54,3 @@ impl<T> Memo<T> {
         Ok(v)
     }
 }
-
