@@ -8,8 +8,8 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use common::{csv_rows, write};
+use deformlab::eval::euclidean_error_curve;
 use deformlab::eval::{curve_grid, geodesic_error_curve};
-use deformlab::experiment::fbt::euclidean_error_curve;
 use deformlab::experiment::{make_plots, parse_config, Manifest};
 use deformlab::mesh::primitives::{icosphere, torus};
 

@@ -575,7 +575,7 @@ fn completion(
     out.set("corr_error_mean_geodesic", num(metrics::mean(&ce)));
     out.curves
         .push(Curve::new("correspondence_geodesic_area", &grid, &curve));
-    let (ce, curve) = euclidean_error_curve(&fc.target, &predicted, &truth, &grid)?;
+    let (ce, curve) = crate::eval::euclidean_error_curve(&fc.target, &predicted, &truth, &grid)?;
     out.set("corr_error_mean_euclidean", num(metrics::mean(&ce)));
     out.curves
         .push(Curve::new("correspondence_euclidean_area", &grid, &curve));
@@ -588,43 +588,6 @@ fn completion(
         save(dir, &format!("partial_{pose}.ply"), &problem.partial().mesh)?;
     }
     Ok(())
-}
-
-/// Euclidean correspondence errors `‖v[predicted] − v[truth]‖ / √area` on
-/// `mesh` (the unit of [`geodesic_error_curve`], which they never exceed:
-/// an edge path is at least as long as the straight segment) and their
-/// cumulative curve on `bounds`.
-pub fn euclidean_error_curve(
-    mesh: &Mesh,
-    predicted: &[usize],
-    truth: &[usize],
-    bounds: &[f64],
-) -> Result<(Vec<f64>, Vec<f64>)> {
-    if predicted.len() != truth.len() {
-        return Err(Error::invalid(format!(
-            "{} predicted but {} true correspondences",
-            predicted.len(),
-            truth.len()
-        )));
-    }
-    let v = mesh.vertices();
-    if let Some(&i) = predicted.iter().chain(truth).find(|&&i| i >= v.len()) {
-        return Err(Error::invalid(format!(
-            "correspondence vertex {i} out of range ({} vertices)",
-            v.len()
-        )));
-    }
-    let area = crate::ops::total_area(mesh);
-    if area.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-        return Err(Error::invalid("mesh has zero area"));
-    }
-    let errors: Vec<f64> = predicted
-        .iter()
-        .zip(truth)
-        .map(|(&p, &t)| (v[p] - v[t]).norm() / area.sqrt())
-        .collect();
-    let curve = cumulative_curve(&errors, bounds);
-    Ok((errors, curve))
 }
 
 /// Fig. 3: automatic correspondence within an ambiguous feature group.
