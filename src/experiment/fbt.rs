@@ -32,10 +32,16 @@
 //! | `interpolation` | Fig. 3 | two targets registered, blended at s = ½ (rotations slerped per example): ARAP energy of the blend vs the linear blend; endpoint reproduction (when both chose the same example ℓ*) |
 //!
 //! Relative distortion is the paper's: per vertex `‖p − p_true‖ / √area`
-//! with the area of the reference example. The skeleton dictionary uses the
-//! segment weights of [`SkinningWeights::segments`] learnt from the
+//! with the area of the reference example. The skeleton dictionary (the
+//! `projection` task's `dictionary = "skeleton"` and the default solving
+//! pipeline's last stage and clusters) uses the bone weights of
+//! example-based skinning ([`crate::skin::rigging`]) learnt from the
 //! reference and `rig_poses` other shapes of the class (never the target),
-//! the same for every q — our stand-in for the paper's rigging package.
+//! the same for every q. `completion` also flags gross failures
+//! (`failed_parts`, `gross_failure`: parts whose mean distortion exceeds
+//! 0.2 √area; parts = the dataset's true segmentation, else the rig's
+//! bones). Unreferenced vertices and tiny loose parts are dropped for every
+//! task (`dropped_vertices`).
 
 use std::time::Instant;
 

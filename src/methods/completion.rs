@@ -781,7 +781,8 @@ pub enum DictionaryKind {
     /// Example-based LBO dictionary (the paper's main choice).
     #[default]
     Lbo,
-    /// Example-based dictionary of segment ("skeleton") weights.
+    /// Example-based skeleton dictionary (bone weights of example-based
+    /// skinning, [`crate::skin::rigging`]).
     Skeleton,
     /// LBO atoms of the reference example only, with as many atoms as the
     /// example-based LBO dictionary of the same q and m (Table 2, Fig. 8 A).
