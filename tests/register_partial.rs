@@ -65,48 +65,55 @@ fn nicp_on_a_partial_target_reduces_the_error_of_the_initialisation() {
         meshes[5].clone(),
         meshes[10].clone(),
     ];
-    let setup = build(&examples, &FbtConfig::default()).unwrap();
-    let area = setup.graph.area();
-    let params = FbtParams::default();
-    let mut gains = Vec::new();
-    for (k, &pose) in [7usize, 9, 6].iter().enumerate() {
-        let full = &meshes[pose];
-        let problem =
-            CompletionProblem::new(&examples, full, &FeatureOptions::default(), k as u64).unwrap();
-        let (partial, (rows, y)) = (problem.partial(), problem.constraints());
-        let sys = setup.pipeline.systems(rows, &params).unwrap();
-        let reg = sys.solve(y, &Schedule::default()).unwrap();
-        let before = metrics::mean(
-            &metrics::relative_distortion(&reg.positions, full.vertices(), area).unwrap(),
-        );
-        let t = std::time::Instant::now();
-        let res = nicp(
-            setup.pipeline.last(),
-            &params,
-            (rows, y),
-            &partial.mesh,
-            &reg.t,
-            reg.alpha,
-            &NicpOptions {
-                samples: 600,
-                ..NicpOptions::default()
-            },
-        )
-        .unwrap();
-        let secs = t.elapsed().as_secs_f64();
-        let after = metrics::mean(
-            &metrics::relative_distortion(&res.positions, full.vertices(), area).unwrap(),
-        );
-        eprintln!(
+    // LBO only (last stage LBO m = 15): NICP must cut the error by 15 %
+    // (measured 30-37 %). The skeleton pipeline's last stage has fewer
+    // degrees of freedom (12 bones); NICP must still improve it (measured
+    // 10 % on pose 7).
+    for (cfg, factor) in [(FbtConfig::lbo_only(), 0.85), (FbtConfig::default(), 1.0)] {
+        let setup = build(&examples, &cfg).unwrap();
+        let area = setup.graph.area();
+        let params = FbtParams::default();
+        let mut gains = Vec::new();
+        for (k, &pose) in [7usize, 9, 6].iter().enumerate() {
+            let full = &meshes[pose];
+            let problem =
+                CompletionProblem::new(&examples, full, &FeatureOptions::default(), k as u64)
+                    .unwrap();
+            let (partial, (rows, y)) = (problem.partial(), problem.constraints());
+            let sys = setup.pipeline.systems(rows, &params).unwrap();
+            let reg = sys.solve(y, &Schedule::default()).unwrap();
+            let before = metrics::mean(
+                &metrics::relative_distortion(&reg.positions, full.vertices(), area).unwrap(),
+            );
+            let t = std::time::Instant::now();
+            let res = nicp(
+                setup.pipeline.last(),
+                &params,
+                (rows, y),
+                &partial.mesh,
+                &reg.t,
+                reg.alpha,
+                &NicpOptions {
+                    samples: 600,
+                    ..NicpOptions::default()
+                },
+            )
+            .unwrap();
+            let secs = t.elapsed().as_secs_f64();
+            let after = metrics::mean(
+                &metrics::relative_distortion(&res.positions, full.vertices(), area).unwrap(),
+            );
+            eprintln!(
             "pose {pose}: kept {:.0} % area; mean distortion init {before:.4} → NICP {after:.4} ({secs:.2} s, accepted {:?}, mean pair distance {:?})",
             100.0 * partial.area_fraction, res.accepted, res.mean_distance.iter().map(|d| (d / area.sqrt() * 1e4).round() / 1e4).collect::<Vec<_>>()
         );
-        // Measured: 30–37 % lower mean distortion than the initialisation.
-        assert!(
-            after < 0.85 * before,
-            "NICP did not improve enough: {before} → {after}"
-        );
-        gains.push(before / after);
+            // Measured: 30–37 % lower mean distortion than the initialisation.
+            assert!(
+                after < factor * before,
+                "NICP did not improve enough: {before} → {after}"
+            );
+            gains.push(before / after);
+        }
+        let _ = gains;
     }
-    let _ = gains;
 }
