@@ -68,12 +68,11 @@ use crate::methods::completion::{CompletionProblem, CompletionSolver, FbtOptions
 use crate::methods::completion::{DictionaryKind, SolverKind};
 use crate::register::{
     apply_rows, best_permutation, build_with_rig, feature_row_groups, interpolate, metrics,
-    skeleton_rig, vertex_rows, IterOptions, Schedule,
+    skeleton_rig, skeleton_weights, vertex_rows, IterOptions, Schedule,
 };
-use crate::skin::dictionary::{Dictionary, SkinningWeights, WeightKind};
+use crate::skin::dictionary::{Dictionary, SkinningWeights};
 use crate::skin::lbo::lbo_basis;
 use crate::skin::lbs::points_from_matrix;
-use crate::skin::rigging::RigOptions;
 use crate::solve::EigenOptions;
 use crate::{Error, Point, Result};
 
@@ -199,11 +198,9 @@ fn class_parts(col: &Collection, fc: &FbtCase, o: &FbtOptions) -> Result<Vec<usi
              the reference and the target",
         ));
     }
-    let opts = RigOptions {
-        bones: o.bones,
-        ..RigOptions::default()
-    };
-    Ok(skeleton_rig(&fc.examples[0], &rig, &opts)?.labels.clone())
+    Ok(skeleton_rig(&fc.examples[0], &rig, &o.rig_options())?
+        .labels
+        .clone())
 }
 
 fn save(dir: &std::path::Path, name: &str, mesh: &Mesh) -> Result<()> {
@@ -315,12 +312,7 @@ fn projection(fc: &FbtCase, spec: &FbtSpec, o: &FbtOptions, out: &mut CaseResult
                     o.rig_poses
                 )));
             }
-            let opts = RigOptions {
-                bones: o.bones,
-                ..RigOptions::default()
-            };
-            let r = skeleton_rig(reference, &rig, &opts)?;
-            let w = SkinningWeights::custom(reference, r.weights.clone(), WeightKind::Skeleton)?;
+            let (w, r) = skeleton_weights(reference, &rig, &o.rig_options())?;
             out.set("n_bones", r.bones().to_string());
             out.set("rig_rms", num(r.rms_error));
             Dictionary::from_meshes(&fc.examples, &w)?

@@ -29,6 +29,7 @@ use crate::register::{
     ConstraintRows, DictionaryExamples, FbtConfig, FbtParams, InitMethod, NicpOptions, ScaleMode,
     Schedule, StageConfig, WeightChoice,
 };
+use crate::skin::rigging::RigOptions;
 use crate::{Error, Point, Result};
 
 /// Feature points and their geodesic circles (FBT Sec. 5).
@@ -156,14 +157,26 @@ impl FbtOptions {
         p
     }
 
+    /// The example-based skinning of the skeleton weights (`bones`, the
+    /// library's defaults otherwise).
+    pub fn rig_options(&self) -> RigOptions {
+        RigOptions {
+            bones: self.bones,
+            ..RigOptions::default()
+        }
+    }
+
     /// The pipeline configuration of the solving tasks.
     pub fn config(&self, seed: u64) -> FbtConfig {
         let base = match self.pipeline {
             PipelineKind::Skeleton => FbtConfig::default(),
             PipelineKind::Lbo => FbtConfig::lbo_only(),
         };
-        let mut c = FbtConfig { seed, ..base };
-        c.rig.bones = self.bones;
+        let mut c = FbtConfig {
+            seed,
+            rig: self.rig_options(),
+            ..base
+        };
         c.main.weights = WeightChoice::Lbo { m: self.m };
         c.clusters = self.clusters;
         match self.dictionary_examples {

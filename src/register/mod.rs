@@ -41,8 +41,8 @@ pub use model::{ArapGraph, FbtModel};
 pub use nicp::{minimal_step, nicp, NicpOptions, NicpResult};
 pub use pipeline::{FbtPipeline, InitMethod, PipelineSystems, Registration, Schedule};
 pub use setup::{
-    build, build_with_rig, skeleton_rig, synthetic_class, ClusterSource, DictionaryExamples,
-    FbtConfig, FbtSetup, StageConfig, WeightChoice,
+    build, build_with_rig, skeleton_rig, skeleton_weights, synthetic_class, ClusterSource,
+    DictionaryExamples, FbtConfig, FbtSetup, StageConfig, WeightChoice,
 };
 pub use solver::{
     AverageSolution, ConstraintRows, ExampleSolution, FbtParams, FbtSystem, IterOptions,

@@ -183,7 +183,7 @@ pub struct FbtSetup {
     pub lbo: Option<LboBasis>,
     pub clusters: Vec<usize>,
     /// The skeleton rig, when a stage or the clusters use it.
-    pub rig: Option<Rig>,
+    pub rig: Option<Arc<Rig>>,
     /// Dictionary sizes b of (init, main, rich).
     pub sizes: (Option<usize>, usize, Option<usize>),
     /// Wall time of the whole precomputation (s).
@@ -284,9 +284,8 @@ pub fn build_with_rig(examples: &[Mesh], rig_shapes: &[Mesh], cfg: &FbtConfig) -
                  pipeline",
             ));
         }
-        let r = skeleton_rig(&examples[0], rig_shapes, &cfg.rig)?;
-        let w = SkinningWeights::custom(&examples[0], r.weights.clone(), WeightKind::Skeleton)?;
-        (Some(w), Some((*r).clone()))
+        let (w, r) = skeleton_weights(&examples[0], rig_shapes, &cfg.rig)?;
+        (Some(w), Some(r))
     } else {
         (None, None)
     };
@@ -355,6 +354,18 @@ pub fn skeleton_rig(reference: &Mesh, rig_shapes: &[Mesh], opts: &RigOptions) ->
         format!("{opts:?}"),
     );
     MEMO.get_or(key, || example_skinning(reference, rig_shapes, opts))
+}
+
+/// The skeleton weights of `reference` learnt from `rig_shapes`
+/// ([`skeleton_rig`], memoised) with the rig they come from.
+pub fn skeleton_weights(
+    reference: &Mesh,
+    rig_shapes: &[Mesh],
+    opts: &RigOptions,
+) -> Result<(SkinningWeights, Arc<Rig>)> {
+    let r = skeleton_rig(reference, rig_shapes, opts)?;
+    let w = SkinningWeights::custom(reference, r.weights.clone(), WeightKind::Skeleton)?;
+    Ok((w, r))
 }
 
 /// Labels renumbered `0..k` in order of first appearance (bones that lost
