@@ -44,6 +44,10 @@ name = "completion"
 kind = "fbt"
 fbt = { task = "completion", q = 2, nicp_iterations = 2, queries = 50 }
 [[methods]]
+name = "template"
+kind = "fbt"
+fbt = { task = "completion", solver = "template", queries = 50 }
+[[methods]]
 name = "permutation"
 kind = "fbt"
 fbt = { task = "permutation", q = 2, group = 2 }
@@ -87,7 +91,7 @@ fn tiny_fbt_config_runs_through_the_harness() {
         max_new: None,
     };
     let s = run_configs(std::slice::from_ref(&cfg), &opts).unwrap();
-    assert_eq!(s[0].computed, 7);
+    assert_eq!(s[0].computed, 8);
     assert_eq!(s[0].failed, 0, "some FBT methods failed");
     let dir = out.join("fbt-tiny");
     let rs = rows(&dir.join("cases.csv"));
@@ -130,6 +134,41 @@ fn tiny_fbt_config_runs_through_the_harness() {
     assert!(
         euc <= geo && euc >= 0.0,
         "Euclidean {euc} vs geodesic {geo}"
+    );
+    // The floor (the template left undeformed), on every completion row and
+    // as its own method; the registration beats it, raw and after the best
+    // rigid alignment of each onto the truth.
+    let floor = get("completion", "floor_distortion_mean");
+    assert!(
+        (get("template", "rel_distortion_mean") - floor).abs() <= 1e-12 * floor,
+        "template row vs floor column"
+    );
+    assert!(
+        (get("template", "rel_distortion_mean_aligned")
+            - get("completion", "floor_distortion_mean_aligned"))
+        .abs()
+            <= 1e-12 * floor
+    );
+    assert!(
+        (get("template", "corr_error_mean_euclidean")
+            - get("completion", "floor_corr_error_mean_euclidean"))
+        .abs()
+            <= 1e-12
+    );
+    assert!(after < 0.5 * floor, "completion {after} vs floor {floor}");
+    let aligned = get("completion", "rel_distortion_mean_aligned");
+    assert!(
+        aligned < 0.5 * get("completion", "floor_distortion_mean_aligned"),
+        "aligned {aligned}"
+    );
+    assert_eq!(get("template", "gross_failure"), 1.0, "the floor fails");
+    let col = |m: &str, c: &str| rs.iter().find(|r| r["method"] == m).unwrap()[c].clone();
+    assert_eq!(col("completion", "pipeline"), "skeleton");
+    assert_eq!(col("template", "pipeline"), "");
+    assert!(
+        col("completion", "dictionary").ends_with("skeleton, bones by the data"),
+        "{}",
+        col("completion", "dictionary")
     );
     let kind = |m: &str| rs.iter().find(|r| r["method"] == m).unwrap()["dictionary_kind"].clone();
     assert_eq!(kind("projection-q4"), "lbo");
@@ -214,6 +253,14 @@ fn bad_fbt_tables_are_rejected_naming_the_key() {
     // The segment stand-in is gone: its key is unknown.
     let e = err("kind = \"fbt\"\nfbt = { task = \"projection\", segments = 3 }\n");
     assert!(e.contains("segments"), "{e}");
+    let e = err(
+        "kind = \"fbt\"\nfbt = { task = \"completion\", solver = \"template\", nicp = true }\n",
+    );
+    assert!(e.contains("methods[0].fbt.nicp"), "{e}");
+    let e = err("kind = \"fbt\"\nfbt = { task = \"completion\", solver = \"template\", pipeline = \"lbo\" }\n");
+    assert!(e.contains("methods[0].fbt.pipeline"), "{e}");
+    let e = err("kind = \"fbt\"\nfbt = { task = \"scale\", solver = \"template\" }\n");
+    assert!(e.contains("methods[0].fbt.solver"), "{e}");
     let e = err("kind = \"fbt\"\nfbt = { task = \"nope\" }\n");
     assert!(e.contains("task") || e.contains("fbt"), "{e}");
     let e = err("kind = \"bdt\"\nfbt = { task = \"scale\" }\n");

@@ -497,7 +497,8 @@ pub struct FbtSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub restarts: Option<bool>,
     /// Deformation model of the `completion` task: `"fbt"` (default),
-    /// `"der"` or `"amberg"`.
+    /// `"der"`, `"amberg"`, or `"template"` (the template left undeformed:
+    /// the floor).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub solver: Option<SolverKind>,
 }
@@ -619,7 +620,7 @@ impl FbtSpec {
         }
         match self.solver.unwrap_or_default() {
             SolverKind::Fbt => {}
-            other @ (SolverKind::Der | SolverKind::Amberg) => {
+            other @ (SolverKind::Der | SolverKind::Amberg | SolverKind::Template) => {
                 if self.task != FbtTask::Completion {
                     return e(
                         "solver",
@@ -638,7 +639,16 @@ impl FbtSpec {
                         ),
                     );
                 }
-                if other == SolverKind::Amberg {
+                if other == SolverKind::Template
+                    && (self.nicp.is_some() || self.nicp_iterations.is_some())
+                {
+                    return e(
+                        "nicp",
+                        "solver = \"template\" leaves the template undeformed: \
+                         nicp / nicp_iterations do not apply",
+                    );
+                }
+                if other != SolverKind::Der {
                     if self.nicp == Some(false) || self.nicp_iterations.is_some() {
                         return e(
                             "nicp",
@@ -646,10 +656,27 @@ impl FbtSpec {
                              schedule: nicp / nicp_iterations do not apply",
                         );
                     }
+                    if self.pipeline.is_some()
+                        || self.bones.is_some()
+                        || self.rig_poses.is_some()
+                        || self.restarts.is_some()
+                    {
+                        return e(
+                            "pipeline",
+                            &format!(
+                                "pipeline / bones / rig_poses / restarts configure FBT's \
+                                 solve; solver = \"{}\" has none",
+                                other.name()
+                            ),
+                        );
+                    }
                     if self.clusters.is_some() || self.compare.is_some() {
                         return e(
                             "clusters",
-                            "solver = \"amberg\" uses no rotation clusters or examples",
+                            &format!(
+                                "solver = \"{}\" uses no rotation clusters or examples",
+                                other.name()
+                            ),
                         );
                     }
                 }

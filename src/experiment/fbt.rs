@@ -57,15 +57,15 @@ use super::store::{num, secs, CaseResult, Curve, RenderOut};
 use crate::data::fnv1a;
 use crate::data::partial::feature_points;
 use crate::eval::{
-    arap_energy, cumulative_curve, curve_grid, error_stats, geodesic_error_curve, vertex_errors,
-    ErrorScale,
+    aligned_vertex_errors, arap_energy, cumulative_curve, curve_grid, error_stats,
+    geodesic_error_curve, vertex_errors, ErrorScale,
 };
 use crate::mesh::compact::{SolvablePart, DEFAULT_MIN_PART_FRACTION};
 use crate::mesh::io::write_ply;
 use crate::mesh::set::ConnectivityReport;
 use crate::mesh::Mesh;
 use crate::methods::completion::{CompletionProblem, CompletionSolver, FbtOptions, FeatureOptions};
-use crate::methods::completion::{DictionaryKind, SolverKind};
+use crate::methods::completion::{DictionaryKind, PipelineKind, SolverKind};
 use crate::register::{
     apply_rows, best_permutation, build_with_rig, feature_row_groups, interpolate, metrics,
     skeleton_rig, skeleton_weights, vertex_rows, IterOptions, Schedule,
@@ -235,9 +235,21 @@ pub fn run(
         out.set("dropped_note", fc.part.describe());
     }
     let m = o.m;
+    let solver = spec.solver.unwrap_or_default();
+    if spec.task != FbtTask::Projection && matches!(solver, SolverKind::Fbt | SolverKind::Der) {
+        // The solving pipeline (Der et al. uses its rotation clusters).
+        out.set(
+            "pipeline",
+            match o.pipeline {
+                PipelineKind::Skeleton => "skeleton",
+                PipelineKind::Lbo => "lbo",
+            },
+        );
+    }
     out.set(
         "dictionary",
         match spec.dictionary.unwrap_or_default() {
+            _ if spec.task != FbtTask::Projection => o.config(seed).describe(),
             DictionaryKind::Lbo => format!("LBO m = {m}"),
             DictionaryKind::Skeleton => match o.bones {
                 Some(b) => format!("skeleton, {b} bones"),
@@ -256,7 +268,7 @@ pub fn run(
             &fc,
             &class_parts(col, &fc, &o)?,
             &o,
-            spec.solver.unwrap_or_default(),
+            solver,
             seed,
             case,
             metrics_spec,
@@ -279,6 +291,33 @@ fn set_distortion(out: &mut CaseResult, d: &[f64], suffix: &str) {
         num(metrics::median(d.to_vec())),
     );
     out.set(&format!("rel_distortion_max{suffix}"), num(metrics::max(d)));
+}
+
+/// Beside the raw distortion of a registration: its distortion after the
+/// best rigid motion onto the truth (`rel_distortion_*_aligned`: how much of
+/// the error is pose, not placement), and the trivial floor, the template
+/// left undeformed (`floor_distortion_mean`, raw and `_aligned`). All in
+/// √area units, `area` being the one of the raw distortion. Returns the
+/// aligned distortion per vertex.
+fn set_aligned_and_floor(
+    out: &mut CaseResult,
+    positions: &[Point],
+    template: &[Point],
+    truth: &[Point],
+    area: f64,
+) -> Result<Vec<f64>> {
+    let s = area.sqrt();
+    let rel = |e: Vec<f64>| -> Vec<f64> { e.into_iter().map(|x| x / s).collect() };
+    let aligned = rel(aligned_vertex_errors(positions, truth)?);
+    set_distortion(out, &aligned, "_aligned");
+    let floor = metrics::relative_distortion(template, truth, area)?;
+    out.set("floor_distortion_mean", num(metrics::mean(&floor)));
+    let floor_aligned = rel(aligned_vertex_errors(template, truth)?);
+    out.set(
+        "floor_distortion_mean_aligned",
+        num(metrics::mean(&floor_aligned)),
+    );
+    Ok(aligned)
 }
 
 /// Table 2: the closest shape in the dictionary's span.
@@ -462,6 +501,13 @@ fn scale(
     let area = setup.graph.area() * s * s;
     let d = metrics::relative_distortion(&reg.positions, target.vertices(), area)?;
     set_distortion(out, &d, "");
+    set_aligned_and_floor(
+        out,
+        &reg.positions,
+        fc.examples[0].vertices(),
+        target.vertices(),
+        area,
+    )?;
     if let Some(dir) = render {
         save(
             dir,
@@ -527,6 +573,13 @@ fn completion(
     let positions = &r.positions;
     let d = problem.distortion(positions)?;
     set_distortion(out, &d, "");
+    let d_rigid = set_aligned_and_floor(
+        out,
+        positions,
+        problem.reference().vertices(),
+        problem.target().vertices(),
+        problem.area(),
+    )?;
     // Gross failures: a part (limb, torso) misplaced on average by more
     // than GROSS_FAILURE_DISTORTION √area.
     let per_part = metrics::part_distortions(&d, parts)?;
@@ -548,6 +601,11 @@ fn completion(
         "cumulative_area",
         &grid,
         &cumulative_curve(&d, &grid),
+    ));
+    out.curves.push(Curve::new(
+        "cumulative_area_rigid",
+        &grid,
+        &cumulative_curve(&d_rigid, &grid),
     ));
     let sc = ErrorScale::of_reference(&fc.target)?;
     let raw = vertex_errors(positions, fc.target.vertices())?;
@@ -575,6 +633,11 @@ fn completion(
         .push(Curve::new("correspondence_geodesic_area", &grid, &curve));
     let (ce, curve) = crate::eval::euclidean_error_curve(&fc.target, &predicted, &truth, &grid)?;
     out.set("corr_error_mean_euclidean", num(metrics::mean(&ce)));
+    // The floor: the same queries matched to the undeformed template.
+    let (floor_predicted, _) =
+        problem.correspondences(problem.reference().vertices(), o.queries)?;
+    let (fce, _) = crate::eval::euclidean_error_curve(&fc.target, &floor_predicted, &truth, &grid)?;
+    out.set("floor_corr_error_mean_euclidean", num(metrics::mean(&fce)));
     out.curves
         .push(Curve::new("correspondence_euclidean_area", &grid, &curve));
     if let Some(dir) = render {
@@ -623,6 +686,13 @@ fn permutation(fc: &FbtCase, o: &FbtOptions, seed: u64, out: &mut CaseResult) ->
     let d =
         metrics::relative_distortion(&search.registration.positions, fc.target.vertices(), area)?;
     set_distortion(out, &d, "");
+    set_aligned_and_floor(
+        out,
+        &search.registration.positions,
+        fc.examples[0].vertices(),
+        fc.target.vertices(),
+        area,
+    )?;
     Ok(())
 }
 

@@ -17,7 +17,8 @@
 //! group of the first `kind = "identity"` method (the target left unchanged)
 //! is always drawn, even when the spec's `methods` list leaves it out, as a
 //! dashed grey line labelled "identity (B unchanged)": the floor every
-//! method must beat. `_correspondence.png` is the geodesic correspondence
+//! method must beat (for FBT completion, the first `solver = "template"`
+//! method, labelled "template (undeformed)"). `_correspondence.png` is the geodesic correspondence
 //! curve (`correspondence_geodesic_area`, Kim et al.; results of older
 //! runs call it `correspondence_area`), `_correspondence_euclidean.png` the
 //! Euclidean one (`correspondence_euclidean_area`, FBT Fig. 7 right).
@@ -109,6 +110,19 @@ pub fn column_label(c: &str) -> String {
             "mean geodesic correspondence error (√area units)".into()
         }
         "corr_error_mean_euclidean" => "mean Euclidean correspondence error (√area units)".into(),
+        "rel_distortion_mean_aligned" => {
+            "mean relative distortion after best rigid alignment (√area units)".into()
+        }
+        "rel_distortion_max_aligned" => {
+            "max relative distortion after best rigid alignment (√area units)".into()
+        }
+        "floor_distortion_mean" => "floor: template undeformed, mean distortion".into(),
+        "floor_distortion_mean_aligned" => {
+            "floor: template undeformed, rigidly aligned, mean distortion".into()
+        }
+        "floor_corr_error_mean_euclidean" => {
+            "floor: template undeformed, mean Euclidean correspondence error".into()
+        }
         "seconds_iteration_init" => "one E_total iteration, init dictionary (s)".into(),
         "seconds_iteration_main" => "one E_total iteration, main dictionary (s)".into(),
         "seconds_iteration_rich" => "one E_total iteration, rich dictionary (s)".into(),
@@ -145,6 +159,8 @@ struct Ctx {
     /// The group of the first `kind = "identity"` method (B left unchanged):
     /// the floor of every transfer evaluation.
     identity_group: Option<String>,
+    /// Legend entry of the floor.
+    floor_label: &'static str,
     warnings: Vec<String>,
 }
 
@@ -188,11 +204,26 @@ pub fn make_plots(dir: &Path) -> Result<Vec<String>> {
             None => groups.push((g, vec![m.name.clone()])),
         }
     }
-    let identity_group = config
-        .methods
-        .iter()
-        .find(|m| m.kind == super::config::MethodKind::Identity)
-        .map(|m| m.group.clone().unwrap_or_else(|| m.name.clone()));
+    // The floor: B left unchanged (transfer) or the template left
+    // undeformed (completion), whichever the config has first.
+    let floor = config.methods.iter().find_map(|m| {
+        let label = if m.kind == super::config::MethodKind::Identity {
+            IDENTITY_LABEL
+        } else if m
+            .fbt
+            .as_ref()
+            .is_some_and(|f| f.solver == Some(crate::methods::completion::SolverKind::Template))
+        {
+            TEMPLATE_LABEL
+        } else {
+            return None;
+        };
+        Some((m.group.clone().unwrap_or_else(|| m.name.clone()), label))
+    });
+    let (identity_group, floor_label) = match floor {
+        Some((g, l)) => (Some(g), l),
+        None => (None, IDENTITY_LABEL),
+    };
     let n_cases = rows
         .iter()
         .filter_map(|r| r.get("case"))
@@ -214,6 +245,7 @@ pub fn make_plots(dir: &Path) -> Result<Vec<String>> {
         curves,
         groups,
         identity_group,
+        floor_label,
         warnings: Vec::new(),
     };
     let mut specs = ctx.config.outputs.plots.clone();
@@ -306,6 +338,8 @@ fn default_plots(c: &Config) -> Vec<PlotSpec> {
 
 /// Legend entry of the identity floor in cumulative plots.
 const IDENTITY_LABEL: &str = "identity (B unchanged)";
+/// Legend entry of the completion floor (`solver = "template"`).
+const TEMPLATE_LABEL: &str = "template (undeformed)";
 
 /// Cumulative curves of every method group (see the module documentation):
 /// `cumulative` (unit-sphere units), `cumulative_area` (√area units),
@@ -415,7 +449,7 @@ struct MeanCurves {
     /// One series per group with the curve, y as stored (a fraction for
     /// cumulative curves).
     series: Vec<Series>,
-    /// Index of the identity group's series, labelled [`IDENTITY_LABEL`].
+    /// Index of the identity group's series, labelled with the floor label.
     floor: Option<usize>,
     /// Case ids with the curve.
     cases: std::collections::BTreeSet<String>,
@@ -465,7 +499,7 @@ fn mean_curves(ctx: &Ctx, curve: &str) -> MeanCurves {
         }
         series.push(Series {
             label: if is_floor {
-                IDENTITY_LABEL.to_string()
+                ctx.floor_label.to_string()
             } else {
                 g.clone()
             },

@@ -486,6 +486,8 @@ pub enum CompletionSolver {
     /// Amberg et al. 2007 optimal-step nonrigid ICP
     /// ([`crate::baselines::amberg`]) with the feature circles as landmarks.
     Amberg(AmbergOptions),
+    /// The trivial floor: the template (reference example) left undeformed.
+    Template,
 }
 
 /// What a [`CompletionSolver`] returns: the completed shape and the
@@ -682,6 +684,10 @@ impl CompletionSolver {
                     ..CompletionOutcome::new(res.positions)
                 })
             }
+            CompletionSolver::Template => Ok(CompletionOutcome {
+                dictionary: Some("template left undeformed (floor)".to_string()),
+                ..CompletionOutcome::new(problem.reference().vertices().to_vec())
+            }),
         }
     }
 }
@@ -807,8 +813,8 @@ pub enum DictionaryKind {
 #[serde(rename_all = "snake_case")]
 pub enum PipelineKind {
     /// The paper's articulated-shape pipeline: last stage the example-based
-    /// skeleton dictionary, rotation clusters = the skeleton's bones
-    /// ([`FbtConfig::default`]).
+    /// skeleton dictionary, rotation clusters from the skeleton weights
+    /// (k-means of them, `clusters` = r; [`FbtConfig::default`]).
     #[default]
     Skeleton,
     /// LBO only: last stage LBO m = 15, clusters from the main LBO weights
@@ -840,6 +846,9 @@ pub enum SolverKind {
     /// Amberg et al. 2007 optimal-step nonrigid ICP
     /// ([`crate::baselines::amberg`]) with the feature circles as landmarks.
     Amberg,
+    /// The template (reference example) left undeformed: the floor every
+    /// completion result must beat.
+    Template,
 }
 
 impl SolverKind {
@@ -849,6 +858,7 @@ impl SolverKind {
             SolverKind::Fbt => "fbt",
             SolverKind::Der => "der",
             SolverKind::Amberg => "amberg",
+            SolverKind::Template => "template",
         }
     }
 }
@@ -860,6 +870,7 @@ impl CompletionSolver {
             SolverKind::Fbt => CompletionSolver::fbt(opts, seed),
             SolverKind::Der => CompletionSolver::der(opts, seed),
             SolverKind::Amberg => CompletionSolver::amberg(opts, seed),
+            SolverKind::Template => CompletionSolver::Template,
         }
     }
 }

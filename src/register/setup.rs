@@ -161,6 +161,36 @@ impl FbtConfig {
         }
     }
 
+    /// The stages in one line, e.g. `LBO m = 4 → LBO m = 10 (reduced) →
+    /// skeleton (bones by the data)`; `(reference only)` marks a stage of
+    /// Fig. 8 A's one-example dictionary.
+    pub fn describe(&self) -> String {
+        let stage = |s: &StageConfig| -> String {
+            let mut d = match s.weights {
+                WeightChoice::Lbo { m } => format!("LBO m = {m}"),
+                WeightChoice::Skeleton => match self.rig.bones {
+                    Some(b) => format!("skeleton, {b} bones"),
+                    None => "skeleton, bones by the data".to_string(),
+                },
+                WeightChoice::Biharmonic { handles } => format!("BBW {handles} handles"),
+            };
+            if s.reduce.is_some() {
+                d.push_str(" (reduced)");
+            }
+            if s.examples == DictionaryExamples::First {
+                d.push_str(" (reference only)");
+            }
+            d
+        };
+        self.init
+            .iter()
+            .chain([&self.main])
+            .chain(self.rich.iter())
+            .map(stage)
+            .collect::<Vec<_>>()
+            .join(" → ")
+    }
+
     /// Whether any stage or the clusters use the skeleton weights.
     pub fn uses_skeleton(&self) -> bool {
         self.cluster_source == ClusterSource::Skeleton
