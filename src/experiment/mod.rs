@@ -2,7 +2,8 @@
 //! ([`dataset`], [`cases`]), the methods of [`crate::methods`] run on
 //! cases and recorded ([`record`]; FBT registration experiments in
 //! [`fbt`]), the
-//! resumable result store ([`store`]), the suite runner with sharding and
+//! resumable result store ([`store`]), valid ranges of numeric keys
+//! ([`range`]), the suite runner with sharding and
 //! merging ([`runner`]) and the plots regenerated from stored results
 //! ([`plots`]). This layer (with `data`, `mesh::io` and `plot`) is the only
 //! one that touches files.
@@ -15,6 +16,7 @@ pub mod dataset;
 pub mod fbt;
 pub mod manifest;
 pub mod plots;
+pub mod range;
 pub mod record;
 pub mod runner;
 pub mod store;
