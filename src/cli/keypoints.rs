@@ -10,6 +10,7 @@ use std::time::Instant;
 use clap::Args;
 use serde_json::{json, Value};
 
+use deformlab::experiment::config::{Epsilon, MaxKeypoints, NCandidates};
 use deformlab::mesh::io::{read_mesh, write_atomic};
 use deformlab::methods::KeypointSource;
 use deformlab::skin::bbw::{BbwOptions, WeightMode};
@@ -29,17 +30,19 @@ pub struct SelectArgs {
     /// Deformed sources A′ (same connectivity as A), one or more.
     #[arg(long, num_args = 1.., required = true)]
     pub deformed: Vec<PathBuf>,
-    /// Number of farthest-point-sampled candidates n_c [default: 100].
-    #[arg(long)]
+    /// Number of farthest-point-sampled candidates n_c, 1..=100000 and at most
+    /// the source's vertex count [default: 100].
+    #[arg(long, value_parser = NCandidates::parse)]
     pub candidates: Option<usize>,
     /// Seed of every random choice (first FPS sample, k-means of the groups) [default: 0].
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Stop adding key points when the error (unit-sphere units) is below ε [default: 0.03].
-    #[arg(long)]
+    /// Stop adding key points when the error (unit-sphere units) is below ε,
+    /// a finite number ≥ 0 [default: 0.03].
+    #[arg(long, value_parser = Epsilon::parse)]
     pub epsilon: Option<f64>,
-    /// Upper bound on the number of key points [default: 30].
-    #[arg(long)]
+    /// Upper bound on the number of key points, 1..=1000 [default: 30].
+    #[arg(long, value_parser = MaxKeypoints::parse)]
     pub max_keypoints: Option<usize>,
     /// Candidate scoring [default: fast].
     #[arg(long, value_enum)]

@@ -28,6 +28,7 @@ use clap::{ArgGroup, Args};
 use serde_json::json;
 
 use deformlab::data::correspondence::{check_pairs, read_pairs, PairFormat};
+use deformlab::experiment::range::Int;
 use deformlab::mesh::io::{read_mesh, write_ply};
 use deformlab::methods::{
     BdtOptions, KeypointSource, TargetCorrespondence, TargetPoints, TransferCase, TransferMethod,
@@ -70,8 +71,8 @@ pub struct TransferArgs {
     /// Format of the correspondence file (default: from its extension).
     #[arg(long, value_enum, requires = "correspondence")]
     pub format: Option<PairFormat>,
-    /// Index base of the correspondence file (default: the format's).
-    #[arg(long, requires = "correspondence")]
+    /// Index base of the correspondence file, 0 or 1 (default: the format's).
+    #[arg(long, requires = "correspondence", value_parser = Int::<0, 1>::parse)]
     pub base: Option<usize>,
     /// A and B share connectivity: target key point = source key point.
     #[arg(long)]
