@@ -2,7 +2,8 @@
 //! ([`dataset`], [`cases`]), the methods of [`crate::methods`] run on
 //! cases and recorded ([`record`]; FBT registration experiments in
 //! [`fbt`]), the
-//! resumable result store ([`store`]), valid ranges of numeric keys
+//! resumable result store ([`store`]), the checks of the config against the
+//! data before a run ([`feasible`]), valid ranges of numeric keys
 //! ([`range`]), the suite runner with sharding and
 //! merging ([`runner`]) and the plots regenerated from stored results
 //! ([`plots`]). This layer (with `data`, `mesh::io` and `plot`) is the only
@@ -14,6 +15,7 @@ pub mod cases;
 pub mod config;
 pub mod dataset;
 pub mod fbt;
+pub mod feasible;
 pub mod manifest;
 pub mod plots;
 pub mod range;

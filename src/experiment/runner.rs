@@ -198,6 +198,8 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
         .iter()
         .filter(|c| opts.shard.is_none_or(|s| s.contains(c.index)))
         .collect();
+    // Values the data make impossible: one error before any case runs.
+    super::feasible::check_against_data(l, &col, &mine)?;
     let render_cases = l.config.outputs.render_cases();
     let render_poses = l.config.outputs.render_poses();
     for c in mine.iter().filter(|c| c.index < render_cases) {
