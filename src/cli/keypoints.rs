@@ -297,7 +297,7 @@ fn xyz(p: &deformlab::Point) -> String {
 /// Reads a key point CSV written by [`write_keypoints_csv`] (a header with a
 /// `source` column and optionally a `target` column; 0-based indices).
 pub fn read_keypoints_csv(path: &Path) -> Result<Vec<KeypointRow>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = deformlab::mesh::io::read_input_text(path)?;
     let mut lines = text
         .lines()
         .enumerate()

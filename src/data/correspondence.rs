@@ -86,7 +86,7 @@ fn check_base(path: &Path, base: usize) -> Result<()> {
 }
 
 fn read_text(path: &Path) -> Result<String> {
-    std::fs::read_to_string(path).map_err(|e| Error::io(path, e))
+    crate::mesh::io::read_input_text(path)
 }
 
 fn parse_index(path: &Path, line: usize, s: &str, base: usize) -> Result<usize> {

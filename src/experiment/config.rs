@@ -1149,7 +1149,7 @@ fn parse_unchecked(text: &str, path: &Path) -> Result<LoadedConfig> {
 
 /// Reads and parses a config file (schema, values and dataset paths).
 pub fn load_config(path: &Path) -> Result<LoadedConfig> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::mesh::io::read_input_text(path)?;
     parse_config(&text, path)
 }
 
@@ -1158,7 +1158,7 @@ pub fn load_config(path: &Path) -> Result<LoadedConfig> {
 /// (e.g. `experiments/real/` without `../shared/data`). A run needs
 /// [`load_config`].
 pub fn load_config_schema(path: &Path) -> Result<LoadedConfig> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::mesh::io::read_input_text(path)?;
     parse_config_schema(&text, path)
 }
 
@@ -1187,16 +1187,29 @@ impl LoadedConfig {
             } else {
                 full.is_file()
             };
+            let what = if want_dir { "folder" } else { "file" };
             if ok {
                 Ok(())
+            } else if full.exists() {
+                // A file for a folder; a FIFO or a device for a file (which
+                // would block or never end).
+                let found = match crate::mesh::io::check_regular_file(&full) {
+                    Ok(_) => "is a file".to_string(),
+                    Err(Error::Parse { message, .. }) => message,
+                    Err(e) => e.to_string(),
+                };
+                Err(bad(
+                    &c.path,
+                    key,
+                    format!("expected a {what}, but {} {found}", full.display()),
+                ))
             } else {
                 Err(bad(
                     &c.path,
                     key,
                     format!(
-                        "expected an existing {} (relative paths are relative to the config file), \
-                         but {} does not exist",
-                        if want_dir { "folder" } else { "file" },
+                        "expected an existing {what} (relative paths are relative to the config \
+                         file), but {} does not exist",
                         full.display()
                     ),
                 ))

@@ -476,7 +476,7 @@ pub fn write_remeshed(dir: &Path, set: &SyntheticSet, remeshed: &Remeshed) -> Re
 
 /// Reads a `map.csv` written by [`write_remeshed`] (header required).
 pub fn read_remesh_map(path: &Path) -> Result<Vec<SurfacePoint>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::mesh::io::read_input_text(path)?;
     let mut out = Vec::new();
     for (ln, line) in text.lines().enumerate() {
         if ln == 0 {

@@ -196,7 +196,7 @@ fn tidy(message: &str) -> String {
 }
 
 pub(super) fn read_ply(path: &Path) -> Result<RawMesh> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = super::read_input_file(path)?;
     parse_ply(path, &bytes)
 }
 

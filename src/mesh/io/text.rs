@@ -5,11 +5,12 @@ use std::path::Path;
 use crate::mesh::Face;
 use crate::{Error, Point, Result};
 
-/// Reads a whole text file. Bytes that are not UTF-8 become U+FFFD, so they
-/// surface as a parse error on the line where they occur rather than as a
-/// whole-file failure.
+/// Reads a whole text file (a regular file, see
+/// [`super::read_input_file`]). Bytes that are not UTF-8 become U+FFFD, so
+/// they surface as a parse error on the line where they occur rather than
+/// as a whole-file failure.
 pub(super) fn read_text(path: &Path) -> Result<String> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = super::read_input_file(path)?;
     Ok(decode_text(&bytes))
 }
 
