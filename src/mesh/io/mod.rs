@@ -131,19 +131,19 @@ pub fn read_input_file(path: &Path) -> Result<Vec<u8>> {
     Ok(bytes)
 }
 
-/// The text of an input file ([`read_input_file`]) as UTF-8; invalid
-/// UTF-8 is an error naming the path and the byte offset.
+/// The text of an input file ([`read_input_file`]) as UTF-8, without a
+/// leading byte-order mark; invalid UTF-8 is an error naming the path and
+/// the byte offset.
 pub fn read_input_text(path: &Path) -> Result<String> {
     let bytes = read_input_file(path)?;
-    std::str::from_utf8(&bytes)
-        .map(str::to_string)
-        .map_err(|e| {
-            Error::parse(
-                path,
-                format!("byte {}", e.valid_up_to()),
-                "not valid UTF-8 text",
-            )
-        })
+    let bytes = text::strip_bom(&bytes);
+    std::str::from_utf8(bytes).map(str::to_string).map_err(|e| {
+        Error::parse(
+            path,
+            format!("byte {}", e.valid_up_to()),
+            "not valid UTF-8 text",
+        )
+    })
 }
 
 /// Reads any supported format, chosen by extension (`.ply`, `.off`, `.obj`,
@@ -167,7 +167,7 @@ pub fn read_raw(path: &Path) -> Result<RawMesh> {
 /// TOSCA pair needs two files: use [`parse_vert_tri`].
 pub fn parse_raw(format: Format, bytes: &[u8], name: &Path) -> Result<RawMesh> {
     match format {
-        Format::Ply => ply::parse_ply(name, bytes),
+        Format::Ply => ply::parse_ply(name, text::strip_bom(bytes)),
         Format::Off => off::parse_off(name, &text::decode_text(bytes)),
         Format::Obj => obj::parse_obj(name, &text::decode_text(bytes)),
         Format::VertTri => Err(Error::invalid(format!(

@@ -197,7 +197,7 @@ fn tidy(message: &str) -> String {
 
 pub(super) fn read_ply(path: &Path) -> Result<RawMesh> {
     let bytes = super::read_input_file(path)?;
-    parse_ply(path, &bytes)
+    parse_ply(path, super::text::strip_bom(&bytes))
 }
 
 /// Parses the bytes of a PLY file; `path` only names it in messages.

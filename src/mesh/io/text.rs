@@ -14,10 +14,18 @@ pub(super) fn read_text(path: &Path) -> Result<String> {
     Ok(decode_text(&bytes))
 }
 
-/// The text of a file's bytes, invalid UTF-8 replaced by U+FFFD (see
-/// [`read_text`]).
+/// The UTF-8 byte-order mark some editors write at the start of a file.
+const BOM: &[u8] = b"\xEF\xBB\xBF";
+
+/// `bytes` without a leading UTF-8 byte-order mark.
+pub(super) fn strip_bom(bytes: &[u8]) -> &[u8] {
+    bytes.strip_prefix(BOM).unwrap_or(bytes)
+}
+
+/// The text of a file's bytes without a leading byte-order mark, invalid
+/// UTF-8 replaced by U+FFFD (see [`read_text`]).
 pub(super) fn decode_text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
+    String::from_utf8_lossy(strip_bom(bytes)).into_owned()
 }
 
 /// Non-empty lines with `#` comments removed, with their one-based line
