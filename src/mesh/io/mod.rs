@@ -189,7 +189,8 @@ pub fn parse_vert_tri(vert: &[u8], tri: &[u8], name: &Path) -> Result<RawMesh> {
 }
 
 /// Reads and validates a mesh (indices in range, finite coordinates); errors
-/// name the file.
+/// name the file. (Any finite size is read, so files round-trip exactly;
+/// the algorithms refuse meshes outside [`super::EXTENT_RANGE`].)
 pub fn read_mesh(path: &Path) -> Result<Mesh> {
     let raw = read_raw(path)?;
     Mesh::try_from(raw).map_err(|e| match e {
