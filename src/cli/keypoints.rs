@@ -79,9 +79,23 @@ impl SelectArgs {
         }
     }
 
-    /// Loads A and the A′ (checking that every A′ has A's vertex count).
+    /// Loads A and the A′ (checking that A is one connected surface of a
+    /// size `f64` handles, and that every A′ has A's vertex count).
     pub fn load(&self) -> Result<(Mesh, Vec<Mesh>)> {
         let source = read_mesh(&self.source)?;
+        let parts = source.component_count();
+        if parts > 1 {
+            return Err(Error::parse(
+                &self.source,
+                "mesh",
+                format!(
+                    "{parts} connected components (separate parts, or an unwelded triangle \
+                     soup: one per face); the source must be one connected surface (weld \
+                     duplicate vertices, or keep one part)"
+                ),
+            ));
+        }
+        check_size(&self.source, &source)?;
         let deformed = self
             .deformed
             .iter()
@@ -119,6 +133,13 @@ impl SelectArgs {
             "weights": format!("{:?}", opts.weights.mode),
         })
     }
+}
+
+/// Errors (naming the file) when a mesh's coordinates span a range whose
+/// squares overflow or underflow `f64` ([`deformlab::mesh::check_extent`]).
+pub fn check_size(path: &Path, mesh: &Mesh) -> Result<()> {
+    deformlab::mesh::check_extent(deformlab::mesh::half_diagonal(mesh.vertices()))
+        .map_err(|msg| Error::parse(path, "mesh", msg))
 }
 
 /// `deformlab keypoints` arguments.

@@ -37,8 +37,8 @@ use deformlab::transfer::{TargetWeights, TransferFrame};
 use deformlab::{Error, Mesh, Result};
 
 use super::keypoints::{
-    create_dir, print_selection, read_keypoints_csv, refuse_overwrite, selection_json, write_json,
-    write_keypoints_csv, KeypointRow, SelectArgs,
+    check_size, create_dir, print_selection, read_keypoints_csv, refuse_overwrite, selection_json,
+    write_json, write_keypoints_csv, KeypointRow, SelectArgs,
 };
 
 /// `deformlab transfer` arguments.
@@ -144,6 +144,7 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
 
     let (source, deformed) = a.select.load()?;
     let target = read_mesh(&a.target)?;
+    check_size(&a.target, &target)?;
     let mut opts = a.select.options();
 
     let given = match &a.keypoints {

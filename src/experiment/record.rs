@@ -134,15 +134,37 @@ pub fn run_method(
         Method::Transfer(t) => {
             let cm = CaseMeshes::load(col, case)?;
             out.set("n_vertices", cm.a.n_vertices().to_string());
+            if !matches!(t, TransferMethod::Identity | TransferMethod::SumnerOracle) {
+                connected_source(col, case, &cm.a)?;
+            }
             transfer(&cm, case, t, &m.name, metrics, render, out)?;
         }
         Method::Clustering(c) => {
             let cm = CaseMeshes::load(col, case)?;
             out.set("n_vertices", cm.a.n_vertices().to_string());
+            connected_source(col, case, &cm.a)?;
             clustering(col, &cm, c, &m.name, render, out)?;
         }
     }
     out.set("seconds_total", secs(t_total.elapsed().as_secs_f64()));
+    Ok(())
+}
+
+/// Errors, naming the source's file and its component count, when the
+/// source of a method that places handles on it (bounded biharmonic
+/// weights, key point selection) is not one connected surface.
+fn connected_source(col: &Collection, case: &Case, a: &Mesh) -> Result<()> {
+    let parts = a.component_count();
+    if parts > 1 {
+        return Err(crate::Error::invalid(format!(
+            "{} (subject {}, pose {}) has {parts} connected components (separate parts, or an \
+             unwelded triangle soup: one per face); key points and their weights need one \
+             connected source surface",
+            col.file_label(&case.source, &case.reference),
+            case.source,
+            case.reference
+        )));
+    }
     Ok(())
 }
 

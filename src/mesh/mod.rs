@@ -100,6 +100,39 @@ impl Mesh {
         (self.vertices, self.faces)
     }
 
+    /// Connected components of the surface: groups of faces joined through
+    /// shared vertices (vertices in no face are not counted). An unwelded
+    /// triangle soup has one per face.
+    pub fn component_count(&self) -> usize {
+        let n = self.vertices.len();
+        let mut parent: Vec<usize> = (0..n).collect();
+        fn root(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                p[i] = p[p[i]];
+                i = p[i];
+            }
+            i
+        }
+        for f in &self.faces {
+            for k in 1..3 {
+                let (a, b) = (root(&mut parent, f[0]), root(&mut parent, f[k]));
+                if a != b {
+                    parent[a.max(b)] = a.min(b);
+                }
+            }
+        }
+        let mut seen = vec![false; n];
+        let mut count = 0;
+        for f in &self.faces {
+            let r = root(&mut parent, f[0]);
+            if !seen[r] {
+                seen[r] = true;
+                count += 1;
+            }
+        }
+        count
+    }
+
     /// Applies `f` to every vertex position.
     pub fn map_vertices(&self, f: impl Fn(&Point) -> Point) -> Result<Self> {
         self.with_vertices(self.vertices.iter().map(f).collect())
