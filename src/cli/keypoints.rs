@@ -162,6 +162,12 @@ pub struct KeypointsArgs {
 
 pub fn run(a: KeypointsArgs) -> Result<ExitCode> {
     let t_all = Instant::now();
+    if a.force && a.out.is_none() {
+        return Err(Error::invalid(
+            "--force has no effect without --out (nothing is written); add --out DIR or drop \
+             --force",
+        ));
+    }
     let outputs = a
         .out
         .as_ref()
