@@ -119,6 +119,25 @@ impl SelectArgs {
         Ok((source, deformed))
     }
 
+    /// Errors (naming the flag and the file) when the selection would draw
+    /// more candidates than the source has vertices.
+    pub fn check_candidates(&self, source: &Mesh, opts: &KeypointOptions) -> Result<()> {
+        let n = source.n_vertices();
+        if opts.n_candidates > n {
+            return Err(Error::invalid(format!(
+                "--candidates {}{} exceeds the {n} vertices of the source {}; expected 1..={n}",
+                opts.n_candidates,
+                if self.candidates.is_none() {
+                    " (the default)"
+                } else {
+                    ""
+                },
+                self.source.display()
+            )));
+        }
+        Ok(())
+    }
+
     /// The settings as JSON (for the log).
     pub fn json(&self, opts: &KeypointOptions) -> Value {
         json!({
@@ -176,6 +195,7 @@ pub fn run(a: KeypointsArgs) -> Result<ExitCode> {
     refuse_overwrite(&outputs, a.force)?;
     let (source, deformed) = a.select.load()?;
     let opts = a.select.options();
+    a.select.check_candidates(&source, &opts)?;
     let picked = KeypointSource::Automatic {
         selection_poses: None,
     }

@@ -205,7 +205,10 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
     };
     let (correspondence, map_label, pool) = target_map(&a, &source, &target, given.as_ref())?;
     // With markers: candidates drawn from the file's source vertices only
-    // (in the file's order).
+    // (in the file's order; n_c capped at their count).
+    if given.is_none() && pool.is_empty() {
+        a.select.check_candidates(&source, &opts)?;
+    }
     opts.candidate_pool = pool;
     let keypoints = match &given {
         Some((path, rows)) => {
