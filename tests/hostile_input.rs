@@ -522,6 +522,37 @@ fn h06_bom_numeric_range_and_disconnected_meshes() {
         );
         assert!(!err.contains("coincide"), "{err}");
     }
+    // Through `run`: the failed case names the file and the overflow (the
+    // identity floor failed on "a non-finite deformed length").
+    let big = m.map_vertices(|p| Point::from(p.coords * 1e200)).unwrap();
+    let dir = d.path().join("big");
+    ply(&dir, "big0.ply", &big);
+    ply(&dir, "big1.ply", &bent(&big, 0.5));
+    write(
+        &dir,
+        "manifest.toml",
+        "[[mesh]]\nfile = \"big0.ply\"\nsubject = \"s\"\npose = 0\n\
+         [[mesh]]\nfile = \"big1.ply\"\nsubject = \"s\"\npose = 1\n",
+    );
+    let cfg = write(
+        d.path(),
+        "big.toml",
+        "name = \"big\"\n[dataset.manifest]\npath = \"big/manifest.toml\"\n\
+         [cases]\ninclude_self = true\n[[methods]]\nname = \"identity\"\nkind = \"identity\"\n\
+         [outputs]\nrender_cases = 0\n",
+    );
+    let out = d.path().join("out");
+    let o = run_limited(
+        &["run", s(&cfg), "--out", s(&out), "--no-plots", "--quiet"],
+        LIMIT,
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    let table = std::fs::read_to_string(out.join("big/cases.csv")).unwrap();
+    assert!(
+        table.contains("big0.ply") && table.contains("numeric overflow"),
+        "{table}"
+    );
     // Two parts and an unwelded triangle soup: the component count and the
     // file, not "singular (is the mesh connected?)".
     let one = icosphere(1);

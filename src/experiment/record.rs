@@ -113,6 +113,32 @@ impl CaseMeshes {
             .collect::<Result<Vec<_>>>()?;
         Ok(CaseMeshes { a, a_def, b, truth })
     }
+
+    /// Errors, naming the file, when a mesh of the case spans a range whose
+    /// squared lengths overflow or underflow `f64`
+    /// ([`crate::mesh::check_extent`]): measured anyway, its lengths and
+    /// areas would be infinite or zero.
+    pub fn check_sizes(&self, col: &Collection, case: &Case) -> Result<()> {
+        let (s, t, r) = (&case.source, &case.target, &case.reference);
+        let mut meshes = vec![(s, r, &self.a), (t, r, &self.b)];
+        for (p, m) in case.poses.iter().zip(&self.a_def) {
+            meshes.push((s, p, m));
+        }
+        for (p, m) in case.poses.iter().zip(&self.truth) {
+            if let Some(m) = m {
+                meshes.push((t, p, m));
+            }
+        }
+        for (subject, pose, m) in meshes {
+            crate::mesh::check_extent(crate::mesh::half_diagonal(m.vertices())).map_err(|e| {
+                crate::Error::invalid(format!(
+                    "{} (subject {subject}, pose {pose}): {e}",
+                    col.file_label(subject, pose)
+                ))
+            })?;
+        }
+        Ok(())
+    }
 }
 
 /// Runs `m` on `case`; an `Err` is a failure of the method on this case
@@ -133,6 +159,7 @@ pub fn run_method(
         }
         Method::Transfer(t) => {
             let cm = CaseMeshes::load(col, case)?;
+            cm.check_sizes(col, case)?;
             out.set("n_vertices", cm.a.n_vertices().to_string());
             if !matches!(t, TransferMethod::Identity | TransferMethod::SumnerOracle) {
                 connected_source(col, case, &cm.a)?;
@@ -141,6 +168,7 @@ pub fn run_method(
         }
         Method::Clustering(c) => {
             let cm = CaseMeshes::load(col, case)?;
+            cm.check_sizes(col, case)?;
             out.set("n_vertices", cm.a.n_vertices().to_string());
             connected_source(col, case, &cm.a)?;
             clustering(col, &cm, c, &m.name, render, out)?;
