@@ -440,6 +440,16 @@ fn h05_fifos_devices_and_folders_are_not_meshes() {
             assert!(text.contains("UNREADABLE") && text.contains(what), "{text}");
         }
     }
+    // `inspect` of a folder lists such entries as unreadable (it skipped
+    // them).
+    let o = run_limited(&["inspect", "--brief", s(d.path())], LIMIT);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(1), "{text}");
+    assert!(text.contains("folder.ply: UNREADABLE"), "{text}");
+    assert!(
+        !have_fifo || text.contains("pipe.ply: UNREADABLE"),
+        "{text}"
+    );
     // `run` over a FAUST-style folder holding a FIFO or a folder named like
     // a mesh: an error naming it (it was skipped silently).
     for (entry, what) in [("fifo", "is a FIFO"), ("dir", "is a folder")] {
