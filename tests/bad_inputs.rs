@@ -29,7 +29,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{run as cli, tmp, write};
+use common::{cli_err, run as cli, tmp, write};
 use deformlab::mesh::io::{parse_raw, parse_vert_tri, read_mesh, read_raw, write_ply, Format};
 use deformlab::mesh::primitives::icosphere;
 use deformlab::mesh::validate::DefectReport;
@@ -60,31 +60,6 @@ fn read_err(path: &Path, needles: &[&str]) -> Error {
     let mut all = vec![name.as_str()];
     all.extend_from_slice(needles);
     expect_err(read_mesh(path), &all)
-}
-
-/// Runs the CLI expecting failure (exit code ≠ 0, not a panic: exit code
-/// 101 and "panicked" are refused) with stderr mentioning every needle.
-#[track_caller]
-fn cli_err(args: &[&str], needles: &[&str]) -> String {
-    let o = cli(args);
-    let err = String::from_utf8_lossy(&o.stderr).into_owned();
-    assert!(!o.status.success(), "deformlab {args:?} succeeded: {err}");
-    assert_ne!(
-        o.status.code(),
-        Some(101),
-        "deformlab {args:?} panicked: {err}"
-    );
-    assert!(
-        !err.contains("panicked"),
-        "deformlab {args:?} panicked: {err}"
-    );
-    for n in needles {
-        assert!(
-            err.contains(n),
-            "stderr of {args:?} does not mention {n:?}: {err}"
-        );
-    }
-    err
 }
 
 fn p(x: f64, y: f64, z: f64) -> Point {

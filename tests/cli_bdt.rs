@@ -69,7 +69,9 @@ fn gen_keypoints_transfer_end_to_end() {
 
     // transfer, selecting again, shared connectivity, refined
     let t_dir = dir.path().join("t");
-    let transfer = |extra: &[&str], out_dir: &Path| {
+    // (Selection flags only when key points are selected: with
+    // --keypoints they would have no effect, which is an error.)
+    let transfer_with = |sel: &[&str], extra: &[&str], out_dir: &Path| {
         deformlab()
             .arg("transfer")
             .arg("--source")
@@ -86,6 +88,7 @@ fn gen_keypoints_transfer_end_to_end() {
             .output()
             .unwrap()
     };
+    let transfer = |extra: &[&str], out_dir: &Path| transfer_with(&sel, extra, out_dir);
     ok(&transfer(&["--same-connectivity", "--refine"], &t_dir));
     let target = read_mesh(&f.join("tr_reg_010.ply")).unwrap();
     for name in [
@@ -114,7 +117,8 @@ fn gen_keypoints_transfer_end_to_end() {
     // Reuse the key point file (its target column maps the key points).
     let r_dir = dir.path().join("reuse");
     let kp_file = t_dir.join("keypoints.csv");
-    let out = transfer(
+    let out = transfer_with(
+        &[],
         &[
             "--keypoints",
             kp_file.to_str().unwrap(),
@@ -158,7 +162,12 @@ fn bad_input_fails_with_a_message_naming_the_file() {
             .arg(f.join("tr_reg_001.ply"))
             .arg("--target")
             .arg(target)
-            .args(["--candidates", "8"])
+            // (--candidates would have no effect with --keypoints: an error.)
+            .args(if extra.contains(&"--keypoints") {
+                &[][..]
+            } else {
+                &["--candidates", "8"][..]
+            })
             .args(extra)
             .arg("--out")
             .arg(dir.path().join("out"))

@@ -81,7 +81,7 @@ fn wrong_type_names_the_key_and_the_expected_type() {
     assert!(e.contains("dir/exp.toml"), "{e}");
     assert!(e.contains("defaults.n_candidates"), "{e}");
     assert!(
-        e.contains("invalid type: string \"many\", expected usize"),
+        e.contains("invalid type: string \"many\", expected an integer in 1..=100000"),
         "{e}"
     );
     let e = error_of(&GOOD.replace("mode = \"fast\"", "mode = \"quick\""));
@@ -223,7 +223,7 @@ fn every_shipped_config_loads() {
 
 /// `[cases] repeat = k` makes k copies of every case with distinct ids (so
 /// id-seeded methods draw anew), before `random` draws from them; 0 is an
-/// error naming the key.
+/// error naming the key and its range.
 #[test]
 fn repeat_copies_every_case_before_random() {
     use deformlab::experiment::{generate_cases, Collection};
@@ -252,8 +252,19 @@ fn repeat_copies_every_case_before_random() {
     let drawn = with("repeat = 3\nrandom = 4").unwrap();
     assert_eq!(drawn.len(), 4);
     assert!(drawn.iter().all(|c| rep.iter().any(|r| r.id == c.id)));
-    let e = with("repeat = 0").unwrap_err().to_string();
-    assert!(e.contains("rep.toml") && e.contains("cases.repeat"), "{e}");
+    // Out of range: refused while reading the config, naming the key, the
+    // value and the range.
+    let e = parse_config(
+        "name = \"rep\"\n[cases]\nrepeat = 0\n[[methods]]\nname = \"a\"\nkind = \"bdt\"\n",
+        Path::new("rep.toml"),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("rep.toml") && e.contains("cases.repeat") && e.contains("0 is out of range"),
+        "{e}"
+    );
+    assert!(e.contains("1..=1000"), "{e}");
 }
 
 #[test]

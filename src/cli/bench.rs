@@ -7,6 +7,12 @@ use deformlab::Result;
 
 pub fn run(groups: &[String], quick: bool, threads: usize, exact_full: bool) -> Result<ExitCode> {
     deformlab::bench::check_groups(groups)?;
+    if exact_full && !groups.is_empty() && !groups.iter().any(|g| g == "keypoints") {
+        return Err(deformlab::Error::invalid(
+            "--exact-full has no effect without the keypoints group (it adds exact-mode \
+             selections to it); add keypoints to the groups or drop --exact-full",
+        ));
+    }
     deformlab::solve::set_threads(threads);
     eprintln!(
         "benchmarking {} ({} mode, {} solver thread(s)); this takes {}",

@@ -10,7 +10,9 @@ use deformlab::mesh::validate::DefectReport;
 use deformlab::{Error, Mesh, Result};
 
 /// Expands folders into the mesh files they hold (sorted); files are kept as
-/// given. A `.tri` beside a `.vert` is not listed twice.
+/// given. A `.tri` beside a `.vert` is not listed twice. Entries named like
+/// meshes that are not regular files (a FIFO, a device, a folder) are
+/// listed too, so they are reported as unreadable rather than skipped.
 fn expand(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
     let mut out = Vec::new();
     for p in paths {
@@ -19,8 +21,7 @@ fn expand(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
                 .map_err(|e| Error::io(p, e))?
                 .filter_map(|e| e.ok().map(|e| e.path()))
                 .filter(|f| {
-                    f.is_file()
-                        && Format::of_path(f).is_some()
+                    Format::of_path(f).is_some()
                         && f.extension().and_then(|e| e.to_str()) != Some("tri")
                 })
                 .collect();

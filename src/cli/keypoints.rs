@@ -10,6 +10,7 @@ use std::time::Instant;
 use clap::Args;
 use serde_json::{json, Value};
 
+use deformlab::experiment::config::{Epsilon, MaxKeypoints, NCandidates};
 use deformlab::mesh::io::{read_mesh, write_atomic};
 use deformlab::methods::KeypointSource;
 use deformlab::skin::bbw::{BbwOptions, WeightMode};
@@ -29,17 +30,19 @@ pub struct SelectArgs {
     /// Deformed sources A′ (same connectivity as A), one or more.
     #[arg(long, num_args = 1.., required = true)]
     pub deformed: Vec<PathBuf>,
-    /// Number of farthest-point-sampled candidates n_c [default: 100].
-    #[arg(long)]
+    /// Number of farthest-point-sampled candidates n_c, 1..=100000 and at most
+    /// the source's vertex count [default: 100].
+    #[arg(long, value_parser = NCandidates::parse)]
     pub candidates: Option<usize>,
     /// Seed of every random choice (first FPS sample, k-means of the groups) [default: 0].
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Stop adding key points when the error (unit-sphere units) is below ε [default: 0.03].
-    #[arg(long)]
+    /// Stop adding key points when the error (unit-sphere units) is below ε,
+    /// a finite number ≥ 0 [default: 0.03].
+    #[arg(long, value_parser = Epsilon::parse)]
     pub epsilon: Option<f64>,
-    /// Upper bound on the number of key points [default: 30].
-    #[arg(long)]
+    /// Upper bound on the number of key points, 1..=1000 [default: 30].
+    #[arg(long, value_parser = MaxKeypoints::parse)]
     pub max_keypoints: Option<usize>,
     /// Candidate scoring [default: fast].
     #[arg(long, value_enum)]
@@ -76,9 +79,23 @@ impl SelectArgs {
         }
     }
 
-    /// Loads A and the A′ (checking that every A′ has A's vertex count).
+    /// Loads A and the A′ (checking that A is one connected surface of a
+    /// size `f64` handles, and that every A′ has A's vertex count).
     pub fn load(&self) -> Result<(Mesh, Vec<Mesh>)> {
         let source = read_mesh(&self.source)?;
+        let parts = source.component_count();
+        if parts > 1 {
+            return Err(Error::parse(
+                &self.source,
+                "mesh",
+                format!(
+                    "{parts} connected components (separate parts, or an unwelded triangle \
+                     soup: one per face); the source must be one connected surface (weld \
+                     duplicate vertices, or keep one part)"
+                ),
+            ));
+        }
+        check_size(&self.source, &source)?;
         let deformed = self
             .deformed
             .iter()
@@ -102,6 +119,25 @@ impl SelectArgs {
         Ok((source, deformed))
     }
 
+    /// Errors (naming the flag and the file) when the selection would draw
+    /// more candidates than the source has vertices.
+    pub fn check_candidates(&self, source: &Mesh, opts: &KeypointOptions) -> Result<()> {
+        let n = source.n_vertices();
+        if opts.n_candidates > n {
+            return Err(Error::invalid(format!(
+                "--candidates {}{} exceeds the {n} vertices of the source {}; expected 1..={n}",
+                opts.n_candidates,
+                if self.candidates.is_none() {
+                    " (the default)"
+                } else {
+                    ""
+                },
+                self.source.display()
+            )));
+        }
+        Ok(())
+    }
+
     /// The settings as JSON (for the log).
     pub fn json(&self, opts: &KeypointOptions) -> Value {
         json!({
@@ -116,6 +152,13 @@ impl SelectArgs {
             "weights": format!("{:?}", opts.weights.mode),
         })
     }
+}
+
+/// Errors (naming the file) when a mesh's coordinates span a range whose
+/// squares overflow or underflow `f64` ([`deformlab::mesh::check_extent`]).
+pub fn check_size(path: &Path, mesh: &Mesh) -> Result<()> {
+    deformlab::mesh::check_extent(deformlab::mesh::half_diagonal(mesh.vertices()))
+        .map_err(|msg| Error::parse(path, "mesh", msg))
 }
 
 /// `deformlab keypoints` arguments.
@@ -138,6 +181,12 @@ pub struct KeypointsArgs {
 
 pub fn run(a: KeypointsArgs) -> Result<ExitCode> {
     let t_all = Instant::now();
+    if a.force && a.out.is_none() {
+        return Err(Error::invalid(
+            "--force has no effect without --out (nothing is written); add --out DIR or drop \
+             --force",
+        ));
+    }
     let outputs = a
         .out
         .as_ref()
@@ -146,6 +195,7 @@ pub fn run(a: KeypointsArgs) -> Result<ExitCode> {
     refuse_overwrite(&outputs, a.force)?;
     let (source, deformed) = a.select.load()?;
     let opts = a.select.options();
+    a.select.check_candidates(&source, &opts)?;
     let picked = KeypointSource::Automatic {
         selection_poses: None,
     }
@@ -294,7 +344,7 @@ fn xyz(p: &deformlab::Point) -> String {
 /// Reads a key point CSV written by [`write_keypoints_csv`] (a header with a
 /// `source` column and optionally a `target` column; 0-based indices).
 pub fn read_keypoints_csv(path: &Path) -> Result<Vec<KeypointRow>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = deformlab::mesh::io::read_input_text(path)?;
     let mut lines = text
         .lines()
         .enumerate()

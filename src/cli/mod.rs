@@ -14,7 +14,27 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+use deformlab::experiment::config::{Resolution, Subjects, SyntheticPoses};
+use deformlab::experiment::range::Int;
 use deformlab::Result;
+
+/// Range of `--threads` (`run`, `bench`): any count ≥ 1 is accepted and
+/// capped to [`deformlab::solve::max_threads`] by [`threads`].
+type Threads = Int<1, 1_000_000_000>;
+
+/// `--threads k` capped to [`deformlab::solve::max_threads`] (4 × the
+/// available cores, at most 256), with a warning when it is.
+pub fn threads(k: usize) -> usize {
+    let capped = deformlab::solve::cap_threads(k);
+    if capped < k {
+        eprintln!(
+            "warning: --threads {k} capped to {capped} (at most 4 × the available cores, and \
+             at most {})",
+            deformlab::solve::THREAD_LIMIT
+        );
+    }
+    capped
+}
 
 /// deformlab: mesh deformation transfer (BDT) and partial shape registration
 /// (FBT), reproduced and measured.
@@ -43,15 +63,15 @@ pub enum Command {
         /// Seed of every random choice (subject proportions, remesh).
         #[arg(long, default_value_t = 0)]
         seed: u64,
-        /// Number of subjects.
-        #[arg(long, default_value_t = 6)]
+        /// Number of subjects, 1..=99.
+        #[arg(long, default_value_t = 6, value_parser = Subjects::parse)]
         subjects: usize,
-        /// Poses per subject (at most 10).
-        #[arg(long, default_value_t = 8)]
+        /// Poses per subject, 1..=10.
+        #[arg(long, default_value_t = 8, value_parser = SyntheticPoses::parse)]
         poses: usize,
         /// Catmull–Clark levels of the template, 1..=5 (2: ~6.7k vertices, 3: ~27k,
         /// 5: ~430k for large-mesh runs).
-        #[arg(long, default_value_t = 2)]
+        #[arg(long, default_value_t = 2, value_parser = Resolution::parse_u32)]
         resolution: u32,
         /// Creature without a tail.
         #[arg(long)]
@@ -85,8 +105,9 @@ pub enum Command {
         /// Only the smallest size, fewer repetitions.
         #[arg(long)]
         quick: bool,
-        /// Solver threads (1 = sequential, the default; measured faster on 2 cores).
-        #[arg(long, default_value_t = 1)]
+        /// Solver threads (1 = sequential, the default; measured faster on 2 cores);
+        /// capped to 4 × the available cores (at most 256).
+        #[arg(long, default_value_t = 1, value_parser = Threads::parse)]
         threads: usize,
         /// keypoints: also run the exact-mode selections (hours at 6890 vertices).
         #[arg(long)]
@@ -146,7 +167,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             quick,
             threads,
             exact_full,
-        } => bench::run(&groups, quick, threads, exact_full),
+        } => bench::run(&groups, quick, self::threads(threads), exact_full),
         Command::Keypoints(a) => keypoints::run(a),
         Command::Transfer(a) => transfer::run(*a),
         Command::Run(a) => run::run(a),

@@ -27,8 +27,9 @@ pub struct RunArgs {
     #[arg(long, default_value = "results")]
     pub out: PathBuf,
     /// Worker threads (cases × methods and key point candidates run on them);
-    /// results do not depend on it.
-    #[arg(long, default_value_t = 2)]
+    /// results do not depend on it. Capped to 4 × the available cores (at
+    /// most 256).
+    #[arg(long, default_value_t = 2, value_parser = super::Threads::parse)]
     pub threads: usize,
     /// Run only the cases with index % N == i (join with `deformlab merge`).
     #[arg(long, value_name = "i/N")]
@@ -46,7 +47,7 @@ pub fn run(a: RunArgs) -> Result<ExitCode> {
     let shard = a.shard.as_deref().map(Shard::parse).transpose()?;
     let opts = RunOptions {
         out: a.out,
-        threads: a.threads.max(1),
+        threads: super::threads(a.threads),
         shard,
         plots: !a.no_plots,
         progress: !a.quiet,

@@ -19,7 +19,6 @@
 //!   A and B may have any connectivity. Also writes DIR/registered_source.ply
 //!   (A registered onto B) and the registration diagnostics in log.json.
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
@@ -27,7 +26,8 @@ use std::time::Instant;
 use clap::{ArgGroup, Args};
 use serde_json::json;
 
-use deformlab::data::correspondence::{check_pairs, read_pairs, PairFormat};
+use deformlab::data::correspondence::{check_pairs, pair_map, read_pairs, PairFormat};
+use deformlab::experiment::range::Int;
 use deformlab::mesh::io::{read_mesh, write_ply};
 use deformlab::methods::{
     BdtOptions, KeypointSource, TargetCorrespondence, TargetPoints, TransferCase, TransferMethod,
@@ -36,8 +36,8 @@ use deformlab::transfer::{TargetWeights, TransferFrame};
 use deformlab::{Error, Mesh, Result};
 
 use super::keypoints::{
-    create_dir, print_selection, read_keypoints_csv, refuse_overwrite, selection_json, write_json,
-    write_keypoints_csv, KeypointRow, SelectArgs,
+    check_size, create_dir, print_selection, read_keypoints_csv, refuse_overwrite, selection_json,
+    write_json, write_keypoints_csv, KeypointRow, SelectArgs,
 };
 
 /// `deformlab transfer` arguments.
@@ -70,8 +70,8 @@ pub struct TransferArgs {
     /// Format of the correspondence file (default: from its extension).
     #[arg(long, value_enum, requires = "correspondence")]
     pub format: Option<PairFormat>,
-    /// Index base of the correspondence file (default: the format's).
-    #[arg(long, requires = "correspondence")]
+    /// Index base of the correspondence file, 0 or 1 (default: the format's).
+    #[arg(long, requires = "correspondence", value_parser = Int::<0, 1>::parse)]
     pub base: Option<usize>,
     /// A and B share connectivity: target key point = source key point.
     #[arg(long)]
@@ -116,8 +116,61 @@ fn stem(p: &Path) -> String {
         .unwrap_or_else(|| "mesh".into())
 }
 
+/// Options that have no effect without another option (or that another
+/// option makes pointless) are errors naming both: they were silently
+/// ignored.
+fn check_option_dependencies(a: &TransferArgs) -> Result<()> {
+    let refuse = |opt: &str, other: &str, why: &str| {
+        Err(Error::invalid(format!(
+            "{opt} has no effect without {other} ({why}); add {other} or drop {opt}"
+        )))
+    };
+    if a.landmarks.is_some() && !a.auto_correspondence {
+        return refuse(
+            "--landmarks",
+            "--auto-correspondence",
+            "landmarks guide the automatic registration of the source onto the target",
+        );
+    }
+    if a.correspondence.is_none() {
+        if a.format.is_some() {
+            return refuse(
+                "--format",
+                "--correspondence",
+                "it is the format of the correspondence file",
+            );
+        }
+        if a.base.is_some() {
+            return refuse(
+                "--base",
+                "--correspondence",
+                "it is the index base of the correspondence file",
+            );
+        }
+    }
+    if a.keypoints.is_some() {
+        let s = &a.select;
+        for (flag, set) in [
+            ("--candidates", s.candidates.is_some()),
+            ("--epsilon", s.epsilon.is_some()),
+            ("--max-keypoints", s.max_keypoints.is_some()),
+            ("--mode", s.mode.is_some()),
+            ("--error-norm", s.error_norm.is_some()),
+        ] {
+            if set {
+                return Err(Error::invalid(format!(
+                    "{flag} has no effect with --keypoints (the key points are read from the \
+                     file, not selected); drop one of them"
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
 pub fn run(a: TransferArgs) -> Result<ExitCode> {
     let t_all = Instant::now();
+    check_option_dependencies(&a)?;
     // Output paths first, so nothing is computed for a run that would refuse.
     let tstem = stem(&a.target);
     let mut mesh_out = Vec::new();
@@ -143,6 +196,7 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
 
     let (source, deformed) = a.select.load()?;
     let target = read_mesh(&a.target)?;
+    check_size(&a.target, &target)?;
     let mut opts = a.select.options();
 
     let given = match &a.keypoints {
@@ -151,7 +205,10 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
     };
     let (correspondence, map_label, pool) = target_map(&a, &source, &target, given.as_ref())?;
     // With markers: candidates drawn from the file's source vertices only
-    // (in the file's order).
+    // (in the file's order; n_c capped at their count).
+    if given.is_none() && pool.is_empty() {
+        a.select.check_candidates(&source, &opts)?;
+    }
     opts.candidate_pool = pool;
     let keypoints = match &given {
         Some((path, rows)) => {
@@ -179,7 +236,9 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
             if pairs.is_empty() {
                 return Err(Error::parse(path, "file", "no landmarks"));
             }
-            pairs.iter().map(|p| (p.source, p.target)).collect()
+            // Contradictions are refused as in a marker file.
+            let (map, order) = pair_map(path, &pairs)?;
+            order.iter().map(|s| (*s, map[s])).collect()
         }
         None => Vec::new(),
     };
@@ -381,25 +440,7 @@ fn target_map(
         if pairs.is_empty() {
             return Err(Error::parse(path, "file", "no correspondences"));
         }
-        let mut map = BTreeMap::new();
-        let mut sources = Vec::new();
-        for p in &pairs {
-            if let Some(&t) = map.get(&p.source) {
-                if t != p.target {
-                    return Err(Error::parse(
-                        path,
-                        "markers",
-                        format!(
-                            "source vertex {} is matched to both {t} and {}",
-                            p.source, p.target
-                        ),
-                    ));
-                }
-            } else {
-                map.insert(p.source, p.target);
-                sources.push(p.source);
-            }
-        }
+        let (map, sources) = pair_map(path, &pairs)?;
         let label = format!(
             "correspondence {} (candidates drawn from its {} source vertices)",
             path.display(),

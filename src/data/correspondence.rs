@@ -75,6 +75,39 @@ pub fn check_pairs(
     Ok(())
 }
 
+/// The pairs as a map source vertex → target vertex, and the source
+/// vertices in the order they first appear. A pair given twice is kept
+/// once; a source vertex matched to two different targets is a
+/// contradiction: an error naming `path`, the pair and both targets (the
+/// same rule for marker files and landmarks).
+pub fn pair_map(
+    path: &Path,
+    pairs: &[VertexPair],
+) -> Result<(std::collections::BTreeMap<usize, usize>, Vec<usize>)> {
+    let mut map = std::collections::BTreeMap::new();
+    let mut sources = Vec::new();
+    for (k, p) in pairs.iter().enumerate() {
+        match map.get(&p.source) {
+            Some(&t) if t != p.target => {
+                return Err(Error::parse(
+                    path,
+                    format!("pair {k}"),
+                    format!(
+                        "source vertex {} is matched to both {t} and {}",
+                        p.source, p.target
+                    ),
+                ));
+            }
+            Some(_) => {}
+            None => {
+                map.insert(p.source, p.target);
+                sources.push(p.source);
+            }
+        }
+    }
+    Ok((map, sources))
+}
+
 fn check_base(path: &Path, base: usize) -> Result<()> {
     if base > 1 {
         return Err(Error::invalid(format!(
@@ -86,7 +119,7 @@ fn check_base(path: &Path, base: usize) -> Result<()> {
 }
 
 fn read_text(path: &Path) -> Result<String> {
-    std::fs::read_to_string(path).map_err(|e| Error::io(path, e))
+    crate::mesh::io::read_input_text(path)
 }
 
 fn parse_index(path: &Path, line: usize, s: &str, base: usize) -> Result<usize> {

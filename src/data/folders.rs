@@ -8,19 +8,20 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 use super::correspondence::{PairFile, PairFormat, VertexPair};
-use crate::mesh::io::read_mesh;
+use crate::mesh::io::{check_regular_file, read_input_text, read_mesh};
 use crate::mesh::Mesh;
 use crate::{Error, Result};
 
+/// The entries of `dir` (files, folders, anything), sorted by name. A
+/// caller that takes an entry as a mesh checks it with
+/// [`check_regular_file`], so a folder, a FIFO or a device named like a
+/// mesh is an error naming it rather than skipped or read forever.
 fn list_dir(dir: &Path) -> Result<Vec<(String, PathBuf)>> {
     let rd = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
     let mut out = Vec::new();
     for e in rd {
         let e = e.map_err(|e| Error::io(dir, e))?;
         let path = e.path();
-        if !path.is_file() {
-            continue;
-        }
         if let Some(name) = path.file_name().and_then(|n| n.to_str()) {
             out.push((name.to_string(), path));
         }
@@ -75,6 +76,7 @@ impl FaustFolder {
             let id: usize = num.parse().map_err(|_| {
                 Error::parse(&path, "file name", format!("id {num:?} is too large"))
             })?;
+            check_regular_file(&path)?;
             entries.push(FaustEntry {
                 id,
                 subject: id / 10,
@@ -187,6 +189,7 @@ impl ToscaFolder {
             let Some((class, index)) = split_class(stem) else {
                 continue;
             };
+            check_regular_file(path)?;
             match ext.as_str() {
                 "vert" if !names.contains(format!("{stem}.tri").as_str()) => {
                     return Err(Error::parse(
@@ -355,7 +358,7 @@ impl Manifest {
     /// Reads and checks a manifest: keys, referenced files exist, mesh files
     /// unique, correspondences name listed meshes, bases are 0 or 1.
     pub fn open(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = read_input_text(path)?;
         let spec: ManifestSpec = toml::from_str(&text).map_err(|e| {
             let location = match e.span() {
                 Some(span) => {
@@ -370,13 +373,14 @@ impl Manifest {
         let mut meshes: Vec<ManifestMesh> = Vec::new();
         for (i, m) in spec.mesh.into_iter().enumerate() {
             let p = dir.join(&m.file);
-            if !p.is_file() {
+            if !p.exists() {
                 return Err(Error::parse(
                     path,
                     format!("mesh[{i}].file"),
                     format!("{} does not exist", p.display()),
                 ));
             }
+            check_regular_file(&p)?;
             if meshes.iter().any(|o| o.file == m.file) {
                 return Err(Error::parse(
                     path,
@@ -406,13 +410,14 @@ impl Manifest {
             let source = find("source", &c.source)?;
             let target = find("target", &c.target)?;
             let p = dir.join(&c.file);
-            if !p.is_file() {
+            if !p.exists() {
                 return Err(Error::parse(
                     path,
                     format!("correspondence[{i}].file"),
                     format!("{} does not exist", p.display()),
                 ));
             }
+            check_regular_file(&p)?;
             let format = c.format.unwrap_or_else(|| PairFormat::from_path(&p));
             let base = c.base.unwrap_or(format.default_base());
             if base > 1 {

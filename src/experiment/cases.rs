@@ -196,26 +196,17 @@ pub fn generate_cases(cfg: &LoadedConfig, col: &Collection) -> Result<Vec<Case>>
             }
         }
     }
-    match spec.repeat {
-        Some(0) => {
-            return Err(Error::parse(
-                &cfg.path,
-                "key `cases.repeat`",
-                "must be at least 1 (copies of every case)",
-            ))
-        }
-        Some(k) if k > 1 => {
-            cases = cases
-                .iter()
-                .flat_map(|c| {
-                    (0..k).map(move |j| Case {
-                        id: format!("{}-x{j}", c.id),
-                        ..c.clone()
-                    })
+    // (`repeat` is in its range, checked while reading the config.)
+    if let Some(k) = spec.repeat.filter(|&k| k > 1) {
+        cases = cases
+            .iter()
+            .flat_map(|c| {
+                (0..k).map(move |j| Case {
+                    id: format!("{}-x{j}", c.id),
+                    ..c.clone()
                 })
-                .collect();
-        }
-        _ => {}
+            })
+            .collect();
     }
     if let Some(n) = spec.random {
         if n < cases.len() {

@@ -63,7 +63,11 @@
 //! ```
 //!
 //! Errors name the file, the key (e.g. `methods[1].n_candidates`), the line
-//! and what was expected. Sumner–Popović and cage baselines (issue 6) will be
+//! and what was expected. Every numeric key has a valid range, written on
+//! its definition below (`deserialize_with = "Int::<1, 1000>::de"`, see
+//! [`super::range`]) and listed in `experiments/README.md`; values that
+//! depend on the data are checked once the dataset is open
+//! ([`super::feasible`]). Sumner–Popović and cage baselines (issue 6) will be
 //! further `kind`s of [`MethodEntry`] / variants of [`Method`].
 
 use std::collections::BTreeMap;
@@ -71,6 +75,11 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use super::range::{
+    Degrees, Int, NonNegative, OpenUnitInterval, Positive, Real, RemeshRatio, ScaleFactor, Spread,
+    UnitInterval,
+};
+use crate::data::synthetic::{pose::N_POSES, MAX_RESOLUTION, MAX_SUBJECTS};
 use crate::methods::completion::{
     CompareWith, DictionaryKind, FbtOptions, FeatureOptions, PipelineKind, RestartOptions,
     SolverKind,
@@ -150,28 +159,55 @@ pub struct DatasetSpec {
     pub manifest: Option<FolderSpec>,
 }
 
+/// Range of `dataset.synthetic.subjects` (and `deformlab gen --subjects`).
+pub type Subjects = Int<1, { MAX_SUBJECTS as u64 }>;
+/// Range of `dataset.synthetic.poses` (and `deformlab gen --poses`).
+pub type SyntheticPoses = Int<1, { N_POSES as u64 }>;
+/// Range of `dataset.synthetic.resolution` (and `deformlab gen --resolution`).
+pub type Resolution = Int<1, { MAX_RESOLUTION as u64 }>;
+
 /// `[dataset.synthetic]`: [`crate::data::synthetic::FaustStyle`] parameters
 /// (defaults: those of `FaustStyle::default()`).
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct SyntheticSpec {
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Subjects::de"
+    )]
     pub subjects: Option<usize>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "SyntheticPoses::de"
+    )]
     pub poses: Option<usize>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Resolution::de_u32"
+    )]
     pub resolution: Option<u32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub seed: Option<u64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tail: Option<bool>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Real::<Spread>::de"
+    )]
     pub spread: Option<f64>,
     /// Also serve a remesh of subject 0 (about `remesh · n` vertices, other
     /// connectivity, [`crate::data::synthetic::remesh`]) as the subject
     /// `"remesh"`, in every pose of subject 0 (exact: its vertices lie on
     /// subject 0's surface), for cross-topology transfer with ground truth.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Real::<RemeshRatio>::de"
+    )]
     pub remesh: Option<f64>,
 }
 
@@ -224,7 +260,11 @@ pub struct CaseSpec {
     pub reference_pose: Option<Label>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub poses: Option<Vec<Label>>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<1, 1_000_000>::de"
+    )]
     pub max_poses: Option<usize>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub per_pose: Option<bool>,
@@ -234,11 +274,23 @@ pub struct CaseSpec {
     /// `random` draws from them: methods that seed their random choices with
     /// the case id (FBT's partial shapes, feature points and example draws)
     /// get a fresh draw per copy. Default 1.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<1, 1000>::de"
+    )]
     pub repeat: Option<usize>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<1, 1_000_000>::de"
+    )]
     pub random: Option<usize>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<1, 1_000_000>::de"
+    )]
     pub max_cases: Option<usize>,
 }
 
@@ -271,6 +323,14 @@ pub enum MethodKind {
     Identity,
 }
 
+/// Range of `n_candidates` (and `--candidates` of `keypoints` / `transfer`);
+/// at most the source's vertex count, checked once the dataset is open.
+pub type NCandidates = Int<1, 100_000>;
+/// Range of `max_keypoints` (and `--max-keypoints`).
+pub type MaxKeypoints = Int<1, 1000>;
+/// Range of `epsilon` (and `--epsilon`), unit-sphere units.
+pub type Epsilon = Real<NonNegative>;
+
 macro_rules! pipeline_struct {
     ($(#[$m:meta])* pub struct $name:ident { $($(#[$fm:meta])* pub $f:ident : $t:ty,)* }) => {
         $(#[$m])*
@@ -279,20 +339,20 @@ macro_rules! pipeline_struct {
         pub struct $name {
             $($(#[$fm])* pub $f: $t,)*
             /// FPS candidates n_c (default 100).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
+            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "NCandidates::de")]
             pub n_candidates: Option<usize>,
             /// Seed of FPS, k-means, random picks (default: the config seed).
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub seed: Option<u64>,
             /// Stage-1 threshold ε (default 0.03).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
+            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Epsilon::de")]
             pub epsilon: Option<f64>,
             /// `mean` (default: the mean per-vertex distance), `paper` (Eq. 22
             /// literally) or `rms` ([`ErrorNorm`]).
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub error_norm: Option<ErrorNorm>,
             /// Upper bound on the key points (default 30).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
+            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "MaxKeypoints::de")]
             pub max_keypoints: Option<usize>,
             /// `fast` (default) or `exact` ([`SelectionMode`]).
             #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -304,32 +364,32 @@ macro_rules! pipeline_struct {
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub groups: Option<FeatureKind>,
             /// γ_logr (default 1).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
+            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Real::<NonNegative>::de")]
             pub gamma_logr: Option<f64>,
             /// γ_s (default 0.1).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
+            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Real::<NonNegative>::de")]
             pub gamma_s: Option<f64>,
             /// Rotation groups (default: the number of key points).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
+            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<1, 10_000>::de")]
             pub n_groups: Option<usize>,
             /// E_diff data term (default true; false: handle constraints).
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub use_ediff: Option<bool>,
             /// ARAP weight λ (default 0.5).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
+            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Real::<NonNegative>::de")]
             pub lambda: Option<f64>,
             /// Stage-2 passes at most (default: until a pass changes nothing, Algorithm 1).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
+            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<0, 1000>::de")]
             pub max_swap_passes: Option<usize>,
             /// Fast mode: k-means subsample (default 1000).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
+            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<1, 10_000_000>::de")]
             pub kmeans_sample: Option<usize>,
             /// Fast mode: ARAP iterations per trial (default 30).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
+            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<1, 10_000>::de")]
             pub arap_max_iter: Option<usize>,
             /// Select key points from the first m deformed poses only (the
             /// transforms are then fitted on all of them). Default: all.
-            #[serde(default, skip_serializing_if = "Option::is_none")]
+            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<1, 1000>::de")]
             pub selection_poses: Option<usize>,
             /// `direct` (default) or `handle_relative`.
             #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -352,7 +412,7 @@ macro_rules! pipeline_struct {
             pub target_correspondence: Option<TargetCorrespondence>,
             /// Geodesic noise on the target key points: each moves to a random
             /// vertex within this edge-path radius, √area(B) units (default 0).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
+            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Real::<UnitInterval>::de")]
             pub target_noise: Option<f64>,
             /// Seed of the target noise (default 0; independent of `seed`, so
             /// the key points on A stay the same across noise seeds).
@@ -387,7 +447,7 @@ pipeline_struct! {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         pub group: Option<String>,
         /// Key points (random, extremity).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
+        #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<1, 1000>::de")]
         pub count: Option<usize>,
         /// Random pool (default `candidates`).
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -396,10 +456,10 @@ pipeline_struct! {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         pub strategy: Option<Strategy>,
         /// Extremity jitter radius in √area units (default 0: exact picks).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
+        #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Real::<UnitInterval>::de")]
         pub jitter: Option<f64>,
         /// Clustering: FPS handles whose weights form W (default 12).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
+        #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<1, 1000>::de")]
         pub handles: Option<usize>,
         /// Clustering features.
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -408,7 +468,7 @@ pipeline_struct! {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         pub examples: Option<Examples>,
         /// Clustering: clusters (default: the number of true labels, else `handles`).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
+        #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<1, 1000>::de")]
         pub n_clusters: Option<usize>,
         /// `kind = "fbt"`: the task and its options ([`FbtSpec`]).
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -434,63 +494,124 @@ pub enum FbtTask {
 pub struct FbtSpec {
     pub task: FbtTask,
     /// Number of example shapes (default 4).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<1, 100>::de"
+    )]
     pub q: Option<usize>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dictionary: Option<DictionaryKind>,
     /// LBO eigenfunctions (projection: of the dictionary, default 10;
     /// otherwise of the main stage, default that of `FbtConfig`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<1, 200>::de"
+    )]
     pub m: Option<usize>,
     /// Bones of the skeleton weights (default: chosen by the data).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<1, 100>::de"
+    )]
     pub bones: Option<usize>,
     /// Shapes besides the reference and the target the skeleton weights
     /// are learnt from (default 4).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<1, 100>::de"
+    )]
     pub rig_poses: Option<usize>,
     /// Solving pipeline: `"skeleton"` (the paper's for articulated shapes,
     /// default) or `"lbo"` (LBO only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pipeline: Option<PipelineKind>,
     /// Rotation clusters r (default 20).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<1, 1000>::de"
+    )]
     pub clusters: Option<usize>,
     /// Scale applied to the target (`scale` task, default 1.5).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Real::<ScaleFactor>::de"
+    )]
     pub scale: Option<f64>,
     /// Fixed global scale α (Fig. 8 C); default: α is optimised.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Real::<ScaleFactor>::de"
+    )]
     pub alpha: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub compare: Option<CompareWith>,
     /// Feature points (default 8).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<1, 100>::de"
+    )]
     pub features: Option<usize>,
     /// Geodesic circles per feature (default 10).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<1, 100>::de"
+    )]
     pub circles: Option<usize>,
     /// Largest circle radius relative to √area (default 0.15; 0.1 for
     /// `permutation` and `interpolation`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Real::<OpenUnitInterval>::de"
+    )]
     pub radius: Option<f64>,
     /// Vertex-position constraints of the `scale` task (default 20).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<1, 10_000>::de"
+    )]
     pub vertices: Option<usize>,
     /// Run NICP after the feature registration (`completion`, default true).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub nicp: Option<bool>,
     /// NICP iterations (default 10).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<1, 100>::de"
+    )]
     pub nicp_iterations: Option<usize>,
-    /// Size of the ambiguous feature group (`permutation`, default 4).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    /// Size of the ambiguous feature group (`permutation`, default 4; at
+    /// most 6: 720 assignments are tried).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<1, 6>::de"
+    )]
     pub group: Option<usize>,
     /// Timing repetitions (`timing`, default 5).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<1, 100>::de"
+    )]
     pub repeats: Option<usize>,
     /// Correspondence queries per case (Kim et al. curve, default 300).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<1, 10_000>::de"
+    )]
     pub queries: Option<usize>,
     /// FBT completion: retry a suspicious first attempt with the remedies
     /// of [`crate::methods::completion::RestartOptions`] (default true).
@@ -554,42 +675,9 @@ impl FbtSpec {
     /// Checks the options; errors are `(key, message)` relative to the
     /// method's `fbt` table.
     pub fn check(&self) -> std::result::Result<(), (String, String)> {
+        // Each key's own range is checked while reading (see its definition).
         let e = |k: &str, m: &str| Err((k.to_string(), m.to_string()));
-        let pos = |k: &str, v: Option<usize>| -> std::result::Result<(), (String, String)> {
-            if v == Some(0) {
-                return Err((k.to_string(), "expected at least 1".into()));
-            }
-            Ok(())
-        };
-        pos("q", self.q)?;
-        pos("m", self.m)?;
-        pos("bones", self.bones)?;
-        pos("rig_poses", self.rig_poses)?;
-        pos("clusters", self.clusters)?;
-        pos("features", self.features)?;
-        pos("circles", self.circles)?;
-        pos("vertices", self.vertices)?;
-        pos("repeats", self.repeats)?;
-        pos("queries", self.queries)?;
-        if let Some(s) = self.scale {
-            if !(s.is_finite() && s > 0.0) {
-                return e("scale", "expected a positive number");
-            }
-        }
-        if let Some(a) = self.alpha {
-            if !(a.is_finite() && a > 0.0) {
-                return e("alpha", "expected a positive number");
-            }
-        }
-        if let Some(r) = self.radius {
-            if !(r.is_finite() && r > 0.0 && r < 1.0) {
-                return e("radius", "expected a number in (0, 1)");
-            }
-        }
         if let Some(g) = self.group {
-            if !(1..=6).contains(&g) {
-                return e("group", "expected 1..=6 (720 assignments at most)");
-            }
             if g > self.resolve().features.features {
                 return e("group", "expected at most `features` features");
             }
@@ -701,13 +789,25 @@ pub struct MetricsSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub procrustes: Option<bool>,
     /// Upper end of the cumulative curve grid in unit-sphere units (default 0.2).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Real::<Positive>::de"
+    )]
     pub curve_max: Option<f64>,
     /// Upper end of the √area curve grid (default 0.15).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Real::<Positive>::de"
+    )]
     pub curve_max_area: Option<f64>,
     /// Grid points (default 41).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<2, 10_000>::de"
+    )]
     pub curve_points: Option<usize>,
 }
 
@@ -734,13 +834,25 @@ pub struct OutputSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub title: Option<String>,
     /// Cases (first in case order) whose meshes are saved for renders (default 1).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<0, 10_000>::de"
+    )]
     pub render_cases: Option<usize>,
     /// Deformed poses saved per render case (default 2).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<0, 1000>::de"
+    )]
     pub render_poses: Option<usize>,
     /// Render camera `[yaw, pitch]` in degrees (default `[0, 0]`: looking along −z, y up).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Real::<Degrees>::de_pair"
+    )]
     pub camera: Option<[f64; 2]>,
     /// Plots made by `run` and `plot`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -838,7 +950,11 @@ pub struct PlotSpec {
     pub scale: Option<f64>,
     /// Pivot: decimals shown in the PNG and Markdown (default 3; the CSV
     /// keeps 10 significant digits).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<0, 10>::de"
+    )]
     pub digits: Option<usize>,
     /// Pivot: cases.csv columns shown per row before the pivoted columns
     /// (mean over the row's results, not scaled), e.g. the dictionary size.
@@ -1060,7 +1176,7 @@ fn parse_unchecked(text: &str, path: &Path) -> Result<LoadedConfig> {
 
 /// Reads and parses a config file (schema, values and dataset paths).
 pub fn load_config(path: &Path) -> Result<LoadedConfig> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::mesh::io::read_input_text(path)?;
     parse_config(&text, path)
 }
 
@@ -1069,7 +1185,7 @@ pub fn load_config(path: &Path) -> Result<LoadedConfig> {
 /// (e.g. `experiments/real/` without `../shared/data`). A run needs
 /// [`load_config`].
 pub fn load_config_schema(path: &Path) -> Result<LoadedConfig> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::mesh::io::read_input_text(path)?;
     parse_config_schema(&text, path)
 }
 
@@ -1098,16 +1214,29 @@ impl LoadedConfig {
             } else {
                 full.is_file()
             };
+            let what = if want_dir { "folder" } else { "file" };
             if ok {
                 Ok(())
+            } else if full.exists() {
+                // A file for a folder; a FIFO or a device for a file (which
+                // would block or never end).
+                let found = match crate::mesh::io::check_regular_file(&full) {
+                    Ok(_) => "is a file".to_string(),
+                    Err(Error::Parse { message, .. }) => message,
+                    Err(e) => e.to_string(),
+                };
+                Err(bad(
+                    &c.path,
+                    key,
+                    format!("expected a {what}, but {} {found}", full.display()),
+                ))
             } else {
                 Err(bad(
                     &c.path,
                     key,
                     format!(
-                        "expected an existing {} (relative paths are relative to the config file), \
-                         but {} does not exist",
-                        if want_dir { "folder" } else { "file" },
+                        "expected an existing {what} (relative paths are relative to the config \
+                         file), but {} does not exist",
                         full.display()
                     ),
                 ))
@@ -1144,43 +1273,6 @@ fn check_dataset(c: &LoadedConfig) -> Result<()> {
             "expected exactly one of [dataset.synthetic], [dataset.faust], [dataset.tosca], \
              [dataset.manifest]",
         ));
-    }
-    if let Some(s) = &d.synthetic {
-        let fs = s.faust_style();
-        let n_poses = crate::data::synthetic::pose::N_POSES;
-        if !(1..=99).contains(&fs.subjects) {
-            return Err(bad(
-                &c.path,
-                "dataset.synthetic.subjects",
-                "expected 1..=99",
-            ));
-        }
-        if !(1..=n_poses).contains(&fs.poses) {
-            return Err(bad(
-                &c.path,
-                "dataset.synthetic.poses",
-                format!("expected 1..={n_poses}"),
-            ));
-        }
-        if !(1..=5).contains(&fs.resolution) {
-            return Err(bad(
-                &c.path,
-                "dataset.synthetic.resolution",
-                "expected 1..=5",
-            ));
-        }
-        if !(0.0..=0.4).contains(&fs.spread) {
-            return Err(bad(&c.path, "dataset.synthetic.spread", "expected 0..=0.4"));
-        }
-        if let Some(k) = s.remesh {
-            if !(0.3..=2.0).contains(&k) {
-                return Err(bad(
-                    &c.path,
-                    "dataset.synthetic.remesh",
-                    format!("expected a vertex ratio in [0.3, 2], got {k}"),
-                ));
-            }
-        }
     }
     Ok(())
 }
@@ -1306,9 +1398,6 @@ fn check_plot_kind(c: &LoadedConfig, i: usize, p: &PlotSpec) -> Result<()> {
             ));
         }
     }
-    if p.digits.is_some_and(|d| d > 10) {
-        return Err(bad(&c.path, key("digits"), "expected 0..=10"));
-    }
     if !p.labels.is_empty() && !pivot && p.kind != PlotKind::CurvePanels {
         return Err(bad(
             &c.path,
@@ -1370,19 +1459,16 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
         };
         // Simulated users (random, extremity): how many key points they pick.
         let keypoint_count = || -> Result<usize> {
-            match m.count {
-                None => Err(bad(path, key("count"), "expected the number of key points")),
-                Some(0) => Err(bad(path, key("count"), "expected at least 1")),
-                Some(c) => Ok(c),
-            }
+            m.count
+                .ok_or_else(|| bad(path, key("count"), "expected the number of key points"))
         };
         let pipe = merge_pipeline!(m, config.defaults;
             n_candidates, seed, epsilon, error_norm, max_keypoints, mode, fps, groups,
             gamma_logr, gamma_s, n_groups, use_ediff, lambda, max_swap_passes, kmeans_sample,
             arap_max_iter, selection_poses, frame, refine, target_weights, weights,
             target_correspondence, target_noise, target_noise_seed);
-        let bdt = bdt_options(&pipe, config.seed, path, i)?;
-        let target = target_points(&pipe, &bdt, path, i)?;
+        let bdt = bdt_options(&pipe, config.seed);
+        let target = target_points(&pipe, &bdt);
         let seed = pipe.seed.unwrap_or(config.seed);
         if m.kind != MethodKind::Fbt {
             not_for("fbt", m.fbt.is_some())?;
@@ -1491,9 +1577,6 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
                 not_for("selection_poses", pipe.selection_poses.is_some())?;
                 let count = keypoint_count()?;
                 let jitter = m.jitter.unwrap_or(0.0);
-                if !(jitter.is_finite() && jitter >= 0.0) {
-                    return Err(bad(path, key("jitter"), "expected a finite number ≥ 0"));
-                }
                 Method::Transfer(TransferMethod::Bdt {
                     keypoints: KeypointSource::Extremity {
                         count,
@@ -1513,12 +1596,6 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
                 no_target_keys()?;
                 let d = Clustering::default();
                 let handles = m.handles.unwrap_or(d.handles);
-                if handles == 0 {
-                    return Err(bad(path, key("handles"), "expected at least 1"));
-                }
-                if m.n_clusters == Some(0) {
-                    return Err(bad(path, key("n_clusters"), "expected at least 1"));
-                }
                 Method::Clustering(Clustering {
                     handles,
                     features: features(m.features, &pipe),
@@ -1566,38 +1643,10 @@ fn features(kind: Option<FeatureKind>, p: &PipelineSpec) -> GroupFeatures {
 /// The BDT options of a method: every key not set falls back to
 /// [`BdtOptions::default`] (the CLI's defaults too), the seed to the
 /// config's.
-fn bdt_options(p: &PipelineSpec, seed: u64, path: &Path, i: usize) -> Result<BdtOptions> {
-    let key = |k: &str| format!("methods[{i}].{k} (or defaults.{k})");
+/// (Ranges are checked while reading, see the keys' definitions.)
+fn bdt_options(p: &PipelineSpec, seed: u64) -> BdtOptions {
     let d = BdtOptions::default();
     let dk = &d.keypoints;
-    let positive = |k: &str, v: Option<usize>| -> Result<()> {
-        if v == Some(0) {
-            Err(bad(path, key(k), "expected at least 1"))
-        } else {
-            Ok(())
-        }
-    };
-    positive("n_candidates", p.n_candidates)?;
-    positive("max_keypoints", p.max_keypoints)?;
-    positive("n_groups", p.n_groups)?;
-    positive("selection_poses", p.selection_poses)?;
-    positive("arap_max_iter", p.arap_max_iter)?;
-    for (k, v) in [
-        ("epsilon", p.epsilon),
-        ("lambda", p.lambda),
-        ("gamma_logr", p.gamma_logr),
-        ("gamma_s", p.gamma_s),
-    ] {
-        if let Some(v) = v {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(bad(
-                    path,
-                    key(k),
-                    format!("expected a finite number ≥ 0, got {v}"),
-                ));
-            }
-        }
-    }
     let mut arap = dk.arap.clone();
     arap.lambda = p.lambda.unwrap_or(arap.lambda);
     arap.use_ediff = p.use_ediff.unwrap_or(arap.use_ediff);
@@ -1634,40 +1683,26 @@ fn bdt_options(p: &PipelineSpec, seed: u64, path: &Path, i: usize) -> Result<Bdt
         },
         ..dk.clone()
     };
-    Ok(BdtOptions {
+    BdtOptions {
         keypoints,
         frame: p.frame.unwrap_or(d.frame),
         target_weights: p.target_weights.unwrap_or(d.target_weights),
         refine: p.refine.unwrap_or(d.refine),
-    })
+    }
 }
 
 /// The target key point options of a method (defaults:
 /// [`TargetPoints::default`]; the automatic correspondence is seeded with
 /// the selection seed).
-fn target_points(
-    p: &PipelineSpec,
-    bdt: &BdtOptions,
-    path: &Path,
-    i: usize,
-) -> Result<TargetPoints> {
-    let key = |k: &str| format!("methods[{i}].{k} (or defaults.{k})");
+fn target_points(p: &PipelineSpec, bdt: &BdtOptions) -> TargetPoints {
     let d = TargetPoints::default();
-    let noise = p.target_noise.unwrap_or(d.noise);
-    if !(noise.is_finite() && (0.0..=1.0).contains(&noise)) {
-        return Err(bad(
-            path,
-            key("target_noise"),
-            format!("expected a radius in [0, 1] (√area units), got {noise}"),
-        ));
-    }
-    Ok(TargetPoints {
+    TargetPoints {
         correspondence: p.target_correspondence.clone().unwrap_or(d.correspondence),
         landmarks: d.landmarks,
         seed: bdt.keypoints.seed,
-        noise,
+        noise: p.target_noise.unwrap_or(d.noise),
         noise_seed: p.target_noise_seed.unwrap_or(d.noise_seed),
-    })
+    }
 }
 
 impl Config {

@@ -485,6 +485,14 @@ impl Collection {
             .mesh(p)
     }
 
+    /// The file name of subject `s` in pose `p` (`s/p` for a mesh generated
+    /// in memory), for messages.
+    pub fn file_label(&self, s: &str, p: &str) -> String {
+        self.subject(s)
+            .and_then(|x| x.pose(p).map(|e| e.label(s)))
+            .unwrap_or_else(|| format!("{s}/{p}"))
+    }
+
     /// The winding repairs made so far, subject by subject, in pose order.
     pub fn repairs(&self) -> Vec<WindingRepair> {
         let mut out = Vec::new();

@@ -138,7 +138,16 @@ fn load_case(col: &Collection, case: &Case, q: usize, seed: u64) -> Result<FbtCa
     let rest_ids: Vec<String> = pool[q - 1..].to_vec();
     let mut all: Vec<Mesh> = Vec::new();
     for id in ids.iter().chain([target_id]).chain(&rest_ids) {
-        all.push((*col.mesh(&case.source, id)?).clone());
+        let m = col.mesh(&case.source, id)?;
+        // Lengths and areas of a mesh beyond f64's range: say so, naming it.
+        crate::mesh::check_extent(crate::mesh::half_diagonal(m.vertices())).map_err(|e| {
+            Error::invalid(format!(
+                "{} (class {}, shape {id}): {e}",
+                col.file_label(&case.source, id),
+                case.source
+            ))
+        })?;
+        all.push((*m).clone());
     }
     if all.iter().any(|m| m.faces() != all[0].faces()) {
         return Err(Error::invalid(format!(

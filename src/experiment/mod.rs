@@ -2,7 +2,9 @@
 //! ([`dataset`], [`cases`]), the methods of [`crate::methods`] run on
 //! cases and recorded ([`record`]; FBT registration experiments in
 //! [`fbt`]), the
-//! resumable result store ([`store`]), the suite runner with sharding and
+//! resumable result store ([`store`]), the checks of the config against the
+//! data before a run ([`feasible`]), valid ranges of numeric keys
+//! ([`range`]), the suite runner with sharding and
 //! merging ([`runner`]) and the plots regenerated from stored results
 //! ([`plots`]). This layer (with `data`, `mesh::io` and `plot`) is the only
 //! one that touches files.
@@ -13,8 +15,10 @@ pub mod cases;
 pub mod config;
 pub mod dataset;
 pub mod fbt;
+pub mod feasible;
 pub mod manifest;
 pub mod plots;
+pub mod range;
 pub mod record;
 pub mod runner;
 pub mod store;

@@ -113,6 +113,32 @@ impl CaseMeshes {
             .collect::<Result<Vec<_>>>()?;
         Ok(CaseMeshes { a, a_def, b, truth })
     }
+
+    /// Errors, naming the file, when a mesh of the case spans a range whose
+    /// squared lengths overflow or underflow `f64`
+    /// ([`crate::mesh::check_extent`]): measured anyway, its lengths and
+    /// areas would be infinite or zero.
+    pub fn check_sizes(&self, col: &Collection, case: &Case) -> Result<()> {
+        let (s, t, r) = (&case.source, &case.target, &case.reference);
+        let mut meshes = vec![(s, r, &self.a), (t, r, &self.b)];
+        for (p, m) in case.poses.iter().zip(&self.a_def) {
+            meshes.push((s, p, m));
+        }
+        for (p, m) in case.poses.iter().zip(&self.truth) {
+            if let Some(m) = m {
+                meshes.push((t, p, m));
+            }
+        }
+        for (subject, pose, m) in meshes {
+            crate::mesh::check_extent(crate::mesh::half_diagonal(m.vertices())).map_err(|e| {
+                crate::Error::invalid(format!(
+                    "{} (subject {subject}, pose {pose}): {e}",
+                    col.file_label(subject, pose)
+                ))
+            })?;
+        }
+        Ok(())
+    }
 }
 
 /// Runs `m` on `case`; an `Err` is a failure of the method on this case
@@ -133,16 +159,40 @@ pub fn run_method(
         }
         Method::Transfer(t) => {
             let cm = CaseMeshes::load(col, case)?;
+            cm.check_sizes(col, case)?;
             out.set("n_vertices", cm.a.n_vertices().to_string());
+            if !matches!(t, TransferMethod::Identity | TransferMethod::SumnerOracle) {
+                connected_source(col, case, &cm.a)?;
+            }
             transfer(&cm, case, t, &m.name, metrics, render, out)?;
         }
         Method::Clustering(c) => {
             let cm = CaseMeshes::load(col, case)?;
+            cm.check_sizes(col, case)?;
             out.set("n_vertices", cm.a.n_vertices().to_string());
+            connected_source(col, case, &cm.a)?;
             clustering(col, &cm, c, &m.name, render, out)?;
         }
     }
     out.set("seconds_total", secs(t_total.elapsed().as_secs_f64()));
+    Ok(())
+}
+
+/// Errors, naming the source's file and its component count, when the
+/// source of a method that places handles on it (bounded biharmonic
+/// weights, key point selection) is not one connected surface.
+fn connected_source(col: &Collection, case: &Case, a: &Mesh) -> Result<()> {
+    let parts = a.component_count();
+    if parts > 1 {
+        return Err(crate::Error::invalid(format!(
+            "{} (subject {}, pose {}) has {parts} connected components (separate parts, or an \
+             unwelded triangle soup: one per face); key points and their weights need one \
+             connected source surface",
+            col.file_label(&case.source, &case.reference),
+            case.source,
+            case.reference
+        )));
+    }
     Ok(())
 }
 

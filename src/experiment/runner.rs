@@ -32,7 +32,8 @@ use crate::{Error, Result};
 pub struct RunOptions {
     /// Results root: experiment `name` goes to `out/name`.
     pub out: PathBuf,
-    /// Threads of the local pool (≥ 1).
+    /// Threads of the local pool (≥ 1; capped to
+    /// [`crate::solve::max_threads`]).
     pub threads: usize,
     pub shard: Option<Shard>,
     /// Make the plots at the end (failures are warnings).
@@ -197,6 +198,8 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
         .iter()
         .filter(|c| opts.shard.is_none_or(|s| s.contains(c.index)))
         .collect();
+    // Values the data make impossible: one error before any case runs.
+    super::feasible::check_against_data(l, &col, &mine)?;
     let render_cases = l.config.outputs.render_cases();
     let render_poses = l.config.outputs.render_poses();
     for c in mine.iter().filter(|c| c.index < render_cases) {
@@ -233,7 +236,7 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
     let done = AtomicUsize::new(0);
     let first_error: Mutex<Option<Error>> = Mutex::new(None);
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(opts.threads.max(1))
+        .num_threads(crate::solve::cap_threads(opts.threads))
         .build()
         .map_err(|e| Error::invalid(format!("thread pool: {e}")))?;
     let metrics = &l.config.metrics;

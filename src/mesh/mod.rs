@@ -100,6 +100,39 @@ impl Mesh {
         (self.vertices, self.faces)
     }
 
+    /// Connected components of the surface: groups of faces joined through
+    /// shared vertices (vertices in no face are not counted). An unwelded
+    /// triangle soup has one per face.
+    pub fn component_count(&self) -> usize {
+        let n = self.vertices.len();
+        let mut parent: Vec<usize> = (0..n).collect();
+        fn root(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                p[i] = p[p[i]];
+                i = p[i];
+            }
+            i
+        }
+        for f in &self.faces {
+            for k in 1..3 {
+                let (a, b) = (root(&mut parent, f[0]), root(&mut parent, f[k]));
+                if a != b {
+                    parent[a.max(b)] = a.min(b);
+                }
+            }
+        }
+        let mut seen = vec![false; n];
+        let mut count = 0;
+        for f in &self.faces {
+            let r = root(&mut parent, f[0]);
+            if !seen[r] {
+                seen[r] = true;
+                count += 1;
+            }
+        }
+        count
+    }
+
     /// Applies `f` to every vertex position.
     pub fn map_vertices(&self, f: impl Fn(&Point) -> Point) -> Result<Self> {
         self.with_vertices(self.vertices.iter().map(f).collect())
@@ -120,6 +153,59 @@ impl From<Mesh> for RawMesh {
             faces: m.faces,
         }
     }
+}
+
+/// The distances from their centre that a mesh's vertices may span: the
+/// squared lengths, areas and cotangent weights of a mesh larger than
+/// `1e50` overflow `f64` (about 1.8e308) and those of a mesh smaller than
+/// `1e-50` underflow to zero, so such a mesh is refused with what happened
+/// ([`check_extent`]) rather than computed into "coincident vertices" or
+/// NaN.
+pub const EXTENT_RANGE: (f64, f64) = (1e-50, 1e50);
+
+/// The Euclidean norm of `v`, computed without overflow or underflow of
+/// the squares (a vector of 1e200s has norm 1.7e200, not infinity).
+pub fn stable_norm(v: &crate::Vec3) -> f64 {
+    let m = v.amax();
+    if m == 0.0 || !m.is_finite() {
+        return m;
+    }
+    m * (v / m).norm()
+}
+
+/// Half the diagonal of the bounding box of `points` (0 for no points),
+/// without overflow of the differences or squares.
+pub fn half_diagonal(points: &[Point]) -> f64 {
+    let Some(first) = points.first() else {
+        return 0.0;
+    };
+    let (mut lo, mut hi) = (first.coords, first.coords);
+    for p in points {
+        lo = lo.inf(&p.coords);
+        hi = hi.sup(&p.coords);
+    }
+    stable_norm(&(hi * 0.5 - lo * 0.5))
+}
+
+/// The problem (overflow or underflow, as a message) when `extent`, the
+/// largest distance of a mesh's vertices from their centre, is positive
+/// and outside [`EXTENT_RANGE`]. An extent of 0 (every vertex at one
+/// point) is not judged here.
+pub fn check_extent(extent: f64) -> std::result::Result<(), String> {
+    let (lo, hi) = EXTENT_RANGE;
+    if !(extent.is_finite() && extent <= hi) {
+        return Err(format!(
+            "the vertices lie up to {extent:e} from their centre: beyond {hi:e}, squared \
+             lengths and areas overflow f64 (numeric overflow); rescale the mesh"
+        ));
+    }
+    if extent > 0.0 && extent < lo {
+        return Err(format!(
+            "the vertices lie at most {extent:e} from their centre: below {lo:e}, squared \
+             lengths and areas underflow f64 to zero (numeric underflow); rescale the mesh"
+        ));
+    }
+    Ok(())
 }
 
 fn check_finite(vertices: &[Point]) -> Result<()> {

@@ -19,7 +19,7 @@
 //! meshes (default: *every* mesh fits in the unit ball) or only the first
 //! mesh (the others keep their size relative to it and may stick out).
 
-use crate::mesh::Mesh;
+use crate::mesh::{check_extent, stable_norm, Mesh};
 use crate::{Error, Point, Result, Vec3};
 
 /// Which vertices define the normalising transform.
@@ -69,7 +69,9 @@ impl Similarity {
 }
 
 /// The normalising similarity of `meshes` (see the module documentation).
-/// Errors if `meshes` is empty or the reference vertices all coincide.
+/// Errors if `meshes` is empty, the reference vertices all coincide, or
+/// their extent is outside [`crate::mesh::EXTENT_RANGE`] (the error says
+/// overflow or underflow).
 pub fn unit_sphere_transform(meshes: &[Mesh], reference: NormalizeReference) -> Result<Similarity> {
     let refs: &[Mesh] = match reference {
         NormalizeReference::Union => meshes,
@@ -84,13 +86,14 @@ pub fn unit_sphere_transform(meshes: &[Mesh], reference: NormalizeReference) -> 
         lo = lo.inf(&p.coords);
         hi = hi.sup(&p.coords);
     }
-    let center = Point::from((lo + hi) * 0.5);
+    let center = Point::from(lo * 0.5 + hi * 0.5);
     let radius = refs
         .iter()
         .flat_map(|m| m.vertices().iter())
-        .map(|p| (p - center).norm())
+        .map(|p| stable_norm(&(p - center)))
         .fold(0.0f64, f64::max);
-    if !(radius > 0.0 && radius.is_finite()) {
+    check_extent(radius).map_err(|e| Error::invalid(format!("cannot normalise: {e}")))?;
+    if radius == 0.0 {
         return Err(Error::invalid(
             "cannot normalise: all reference vertices coincide",
         ));
@@ -120,6 +123,25 @@ pub fn normalize_to_unit_sphere(
 mod tests {
     use super::*;
     use crate::mesh::primitives::{grid, icosphere};
+
+    #[test]
+    fn overflow_and_underflow_are_named_not_coincidence() {
+        for (s, word) in [(1e200, "overflow"), (1e-200, "underflow")] {
+            let m = icosphere(1)
+                .map_vertices(|p| Point::from(p.coords * s))
+                .unwrap();
+            let e = unit_sphere_transform(&[m], NormalizeReference::Union)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(word) && !e.contains("coincide"), "{e}");
+        }
+        // Large but representable: normalised as usual.
+        let m = icosphere(1)
+            .map_vertices(|p| Point::from(p.coords * 1e40))
+            .unwrap();
+        let t = unit_sphere_transform(&[m], NormalizeReference::Union).unwrap();
+        assert!((t.scale * 1e40 - 1.0).abs() < 1e-9, "{}", t.scale);
+    }
 
     #[test]
     fn union_fits_all_and_is_invertible() {

@@ -31,6 +31,23 @@ pub fn set_threads(k: usize) {
     THREADS.store(k, Ordering::Relaxed);
 }
 
+/// Most worker threads a command starts (`run --threads`, `bench
+/// --threads`): 4 × the available cores, at most [`THREAD_LIMIT`]. More
+/// threads than that only cost memory and switching (results never
+/// depend on the thread count).
+pub fn max_threads() -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    (4 * cores).clamp(1, THREAD_LIMIT)
+}
+
+/// Upper bound of [`max_threads`] whatever the machine.
+pub const THREAD_LIMIT: usize = 256;
+
+/// `k` capped to `1..=max_threads()`.
+pub fn cap_threads(k: usize) -> usize {
+    k.clamp(1, max_threads())
+}
+
 /// The current thread setting (see [`set_threads`]).
 pub fn threads() -> usize {
     THREADS.load(Ordering::Relaxed)

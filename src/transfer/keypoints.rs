@@ -367,7 +367,8 @@ pub struct KeypointFit {
 /// Automatic key point selection (BDT Algorithm 1); see the module docs.
 ///
 /// Errors if `deformed` is empty, a deformed mesh has another vertex count
-/// or other faces than `source`, `n_candidates` is 0 or exceeds the vertex
+/// or other faces than `source`, the source has several connected
+/// components, `n_candidates` is 0 or exceeds the vertex
 /// count, `max_keypoints` is 0, `epsilon` is not finite and ≥ 0, or the
 /// options are otherwise invalid.
 pub fn select_keypoints(
@@ -377,6 +378,14 @@ pub fn select_keypoints(
 ) -> Result<KeypointSelection> {
     let start = Instant::now();
     check_inputs(source, deformed, opts)?;
+    let parts = source.component_count();
+    if parts > 1 {
+        return Err(Error::invalid(format!(
+            "the source mesh has {parts} connected components (separate parts, or an unwelded \
+             triangle soup: one per face); key point selection needs one connected surface \
+             (weld duplicate vertices, or keep one part)"
+        )));
+    }
     let n = source.n_vertices();
     if opts.n_candidates == 0 || opts.n_candidates > n {
         return Err(Error::invalid(format!(

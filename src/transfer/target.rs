@@ -143,8 +143,10 @@ fn centre_radius(mesh: &Mesh) -> Result<(nalgebra::Vector3<f64>, f64)> {
         / v.len().max(1) as f64;
     let r = v
         .iter()
-        .map(|p| (p.coords - c).norm())
+        .map(|p| crate::mesh::stable_norm(&(p.coords - c)))
         .fold(0.0f64, f64::max);
+    crate::mesh::check_extent(r)
+        .map_err(|e| Error::invalid(format!("cannot normalise into the unit sphere: {e}")))?;
     if !(r > 0.0 && r.is_finite()) {
         return Err(Error::invalid(
             "cannot normalise into the unit sphere: the vertices coincide or are not finite",

@@ -1,6 +1,8 @@
 //! Scaffolding shared by the integration tests (`mod common;` in each test
-//! file): the built `deformlab` binary, temporary folders, small files and
-//! configs, result CSVs without their timing columns, folder copies.
+//! file): the built `deformlab` binary (also with a time limit, and as a
+//! clear failure: no panic, key phrases in stderr), temporary folders,
+//! small files and configs, result CSVs without their timing columns,
+//! folder copies.
 //!
 //! Real data: `deformlab::data::shared_data_or_skip` (the
 //! `DEFORMLAB_SHARED_DATA` or `../shared/data` folder, or `None` after
@@ -15,6 +17,7 @@ use std::ffi::OsStr;
 use std::fmt::Debug;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use std::time::{Duration, Instant};
 
 /// The `deformlab` binary built for these tests.
 pub const BIN: &str = env!("CARGO_BIN_EXE_deformlab");
@@ -30,6 +33,91 @@ pub fn deformlab() -> Command {
 /// Runs the binary with `args` to the end and returns its output.
 pub fn run<S: AsRef<OsStr>>(args: &[S]) -> Output {
     deformlab().args(args).output().expect("spawn deformlab")
+}
+
+/// Runs the binary with `args` and a time limit: a child still running
+/// after `limit` is killed and the test fails naming the arguments (a
+/// hang). Stdin is closed, so nothing waits for input.
+#[track_caller]
+pub fn run_limited<S: AsRef<OsStr> + Debug>(args: &[S], limit: Duration) -> Output {
+    use std::io::Read;
+    use std::process::Stdio;
+    let mut child = deformlab()
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn deformlab");
+    // Drain both pipes meanwhile, so a chatty child never blocks on them.
+    let drain = |pipe: Option<Box<dyn Read + Send>>| {
+        std::thread::spawn(move || {
+            let mut buf = Vec::new();
+            if let Some(mut p) = pipe {
+                let _ = p.read_to_end(&mut buf);
+            }
+            buf
+        })
+    };
+    let out = drain(
+        child
+            .stdout
+            .take()
+            .map(|p| Box::new(p) as Box<dyn Read + Send>),
+    );
+    let err = drain(
+        child
+            .stderr
+            .take()
+            .map(|p| Box::new(p) as Box<dyn Read + Send>),
+    );
+    let start = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait for deformlab") {
+            break status;
+        }
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("deformlab {args:?} still running after {limit:?}: killed (a hang)");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    Output {
+        status,
+        stdout: out.join().unwrap_or_default(),
+        stderr: err.join().unwrap_or_default(),
+    }
+}
+
+/// The time limit of [`cli_err`]: every hostile input must be refused well
+/// within it.
+pub const LIMIT: Duration = Duration::from_secs(60);
+
+/// Runs the CLI (within [`LIMIT`]) expecting a clear failure: exit code ≠ 0,
+/// not a panic (exit code 101 and "panicked" are refused), stderr
+/// mentioning every needle. Returns stderr.
+#[track_caller]
+pub fn cli_err<S: AsRef<OsStr> + Debug>(args: &[S], needles: &[&str]) -> String {
+    let o = run_limited(args, LIMIT);
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(!o.status.success(), "deformlab {args:?} succeeded: {err}");
+    assert_ne!(
+        o.status.code(),
+        Some(101),
+        "deformlab {args:?} panicked: {err}"
+    );
+    assert!(
+        !err.contains("panicked"),
+        "deformlab {args:?} panicked: {err}"
+    );
+    for n in needles {
+        assert!(
+            err.contains(n),
+            "stderr of {args:?} does not mention {n:?}: {err}"
+        );
+    }
+    err
 }
 
 /// Like [`run`], asserting success (the failure message shows the arguments,

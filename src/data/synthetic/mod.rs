@@ -38,22 +38,29 @@ use crate::{Error, Point, Result, Vec3};
 use body::{Proportions, Skeleton, Weights, BONE_NAMES, BONE_PARENT, N_BONES};
 pub use remesh::{Remeshed, SurfacePoint};
 
+/// Most subjects of a set ([`FaustStyle::subjects`]).
+pub const MAX_SUBJECTS: usize = 99;
+/// Most Catmull–Clark levels ([`FaustStyle::resolution`]).
+pub const MAX_RESOLUTION: u32 = 5;
+/// Largest relative spread of the proportion factors ([`FaustStyle::spread`]).
+pub const MAX_SPREAD: f64 = 0.4;
+
 /// Configuration of a synthetic FAUST-style set.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct FaustStyle {
-    /// Number of subjects (1..=99).
+    /// Number of subjects (1..=[`MAX_SUBJECTS`]).
     pub subjects: usize,
-    /// Poses per subject (1..=10): the first `poses` rows of the pose table.
+    /// Poses per subject (1..=[`pose::N_POSES`]): the first `poses` rows of the pose table.
     pub poses: usize,
     /// Seed of every random choice (subject proportions, remesh).
     pub seed: u64,
-    /// Catmull–Clark levels (1..=5): each level has about 4× the vertices of
+    /// Catmull–Clark levels (1..=[`MAX_RESOLUTION`]): each level has about 4× the vertices of
     /// the one before (1: ~1.7k, 2: ~6.7k, 3: ~27k, 4: ~108k, 5: ~430k).
     /// 4 and 5 are for the large-mesh runs (`experiments/large/`).
     pub resolution: u32,
     /// Whether the creature has a tail (two extra bones).
     pub tail: bool,
-    /// Relative spread of the subject proportion factors (0..=0.4).
+    /// Relative spread of the subject proportion factors (0..=[`MAX_SPREAD`]).
     pub spread: f64,
 }
 
@@ -98,9 +105,9 @@ pub struct SyntheticSet {
 
 impl FaustStyle {
     fn check(&self) -> Result<()> {
-        if !(1..=99).contains(&self.subjects) {
+        if !(1..=MAX_SUBJECTS).contains(&self.subjects) {
             return Err(Error::invalid(format!(
-                "subjects = {} not in 1..=99",
+                "subjects = {} not in 1..={MAX_SUBJECTS}",
                 self.subjects
             )));
         }
@@ -111,15 +118,15 @@ impl FaustStyle {
                 pose::N_POSES
             )));
         }
-        if !(1..=5).contains(&self.resolution) {
+        if !(1..=MAX_RESOLUTION).contains(&self.resolution) {
             return Err(Error::invalid(format!(
-                "resolution = {} not in 1..=5",
+                "resolution = {} not in 1..={MAX_RESOLUTION}",
                 self.resolution
             )));
         }
-        if !(0.0..=0.4).contains(&self.spread) {
+        if !(0.0..=MAX_SPREAD).contains(&self.spread) {
             return Err(Error::invalid(format!(
-                "spread = {} not in [0, 0.4]",
+                "spread = {} not in [0, {MAX_SPREAD}]",
                 self.spread
             )));
         }
@@ -469,7 +476,7 @@ pub fn write_remeshed(dir: &Path, set: &SyntheticSet, remeshed: &Remeshed) -> Re
 
 /// Reads a `map.csv` written by [`write_remeshed`] (header required).
 pub fn read_remesh_map(path: &Path) -> Result<Vec<SurfacePoint>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::mesh::io::read_input_text(path)?;
     let mut out = Vec::new();
     for (ln, line) in text.lines().enumerate() {
         if ln == 0 {

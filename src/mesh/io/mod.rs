@@ -18,6 +18,11 @@
 //! rejected by [`read_mesh`]; anything that cannot be represented (negative or
 //! zero OBJ index, non-number token, data that disagree with header counts)
 //! is an [`Error::Parse`] naming the file and the line or element.
+//!
+//! Only regular files (or symbolic links to them) are read, up to the size
+//! they have when opened ([`read_input_file`]): a FIFO, a device such as
+//! `/dev/zero` or a folder given as a mesh is an error naming the path, not
+//! a read that blocks or never ends.
 
 mod obj;
 mod off;
@@ -55,6 +60,92 @@ impl Format {
     }
 }
 
+/// What kind of file system object `path` is, when it is not a regular
+/// file (after following symbolic links); `None` for a regular file.
+fn not_regular(meta: &std::fs::Metadata) -> Option<&'static str> {
+    let t = meta.file_type();
+    if t.is_file() {
+        return None;
+    }
+    if t.is_dir() {
+        return Some("a folder");
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_fifo() {
+            return Some("a FIFO (named pipe)");
+        }
+        if t.is_char_device() {
+            return Some("a character device");
+        }
+        if t.is_block_device() {
+            return Some("a block device");
+        }
+        if t.is_socket() {
+            return Some("a socket");
+        }
+    }
+    Some("not a regular file")
+}
+
+/// Errors (naming the path) unless `path` is a regular file or a symbolic
+/// link to one: a FIFO would block a reader forever, a device (e.g.
+/// `/dev/zero`) never ends, a folder has no content. Returns the file's
+/// size.
+pub fn check_regular_file(path: &Path) -> Result<u64> {
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    match not_regular(&meta) {
+        None => Ok(meta.len()),
+        Some(kind) => Err(Error::parse(
+            path,
+            "file",
+            format!(
+                "is {kind}, not a regular file; only regular files (or links to them) are read"
+            ),
+        )),
+    }
+}
+
+/// The bytes of an input file: a regular file (or a link to one, see
+/// [`check_regular_file`]), read up to the size it had when opened (a file
+/// that grows meanwhile is not followed).
+pub fn read_input_file(path: &Path) -> Result<Vec<u8>> {
+    use std::io::Read;
+    let len = check_regular_file(path)?;
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    // The object opened may differ from the one checked (a race): check it.
+    let meta = file.metadata().map_err(|e| Error::io(path, e))?;
+    if let Some(kind) = not_regular(&meta) {
+        return Err(Error::parse(
+            path,
+            "file",
+            format!("is {kind}, not a regular file"),
+        ));
+    }
+    let len = len.min(meta.len());
+    let mut bytes = Vec::with_capacity(usize::try_from(len).unwrap_or(0).min(1 << 30));
+    file.take(len)
+        .read_to_end(&mut bytes)
+        .map_err(|e| Error::io(path, e))?;
+    Ok(bytes)
+}
+
+/// The text of an input file ([`read_input_file`]) as UTF-8, without a
+/// leading byte-order mark; invalid UTF-8 is an error naming the path and
+/// the byte offset.
+pub fn read_input_text(path: &Path) -> Result<String> {
+    let bytes = read_input_file(path)?;
+    let bytes = text::strip_bom(&bytes);
+    std::str::from_utf8(bytes).map(str::to_string).map_err(|e| {
+        Error::parse(
+            path,
+            format!("byte {}", e.valid_up_to()),
+            "not valid UTF-8 text",
+        )
+    })
+}
+
 /// Reads any supported format, chosen by extension (`.ply`, `.off`, `.obj`,
 /// `.vert` or `.tri` for a TOSCA pair; either member of a pair names it).
 pub fn read_raw(path: &Path) -> Result<RawMesh> {
@@ -76,7 +167,7 @@ pub fn read_raw(path: &Path) -> Result<RawMesh> {
 /// TOSCA pair needs two files: use [`parse_vert_tri`].
 pub fn parse_raw(format: Format, bytes: &[u8], name: &Path) -> Result<RawMesh> {
     match format {
-        Format::Ply => ply::parse_ply(name, bytes),
+        Format::Ply => ply::parse_ply(name, text::strip_bom(bytes)),
         Format::Off => off::parse_off(name, &text::decode_text(bytes)),
         Format::Obj => obj::parse_obj(name, &text::decode_text(bytes)),
         Format::VertTri => Err(Error::invalid(format!(
@@ -98,7 +189,8 @@ pub fn parse_vert_tri(vert: &[u8], tri: &[u8], name: &Path) -> Result<RawMesh> {
 }
 
 /// Reads and validates a mesh (indices in range, finite coordinates); errors
-/// name the file.
+/// name the file. (Any finite size is read, so files round-trip exactly;
+/// the algorithms refuse meshes outside [`super::EXTENT_RANGE`].)
 pub fn read_mesh(path: &Path) -> Result<Mesh> {
     let raw = read_raw(path)?;
     Mesh::try_from(raw).map_err(|e| match e {

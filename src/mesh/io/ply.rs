@@ -196,8 +196,8 @@ fn tidy(message: &str) -> String {
 }
 
 pub(super) fn read_ply(path: &Path) -> Result<RawMesh> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    parse_ply(path, &bytes)
+    let bytes = super::read_input_file(path)?;
+    parse_ply(path, super::text::strip_bom(&bytes))
 }
 
 /// Parses the bytes of a PLY file; `path` only names it in messages.

@@ -5,18 +5,27 @@ use std::path::Path;
 use crate::mesh::Face;
 use crate::{Error, Point, Result};
 
-/// Reads a whole text file. Bytes that are not UTF-8 become U+FFFD, so they
-/// surface as a parse error on the line where they occur rather than as a
-/// whole-file failure.
+/// Reads a whole text file (a regular file, see
+/// [`super::read_input_file`]). Bytes that are not UTF-8 become U+FFFD, so
+/// they surface as a parse error on the line where they occur rather than
+/// as a whole-file failure.
 pub(super) fn read_text(path: &Path) -> Result<String> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = super::read_input_file(path)?;
     Ok(decode_text(&bytes))
 }
 
-/// The text of a file's bytes, invalid UTF-8 replaced by U+FFFD (see
-/// [`read_text`]).
+/// The UTF-8 byte-order mark some editors write at the start of a file.
+const BOM: &[u8] = b"\xEF\xBB\xBF";
+
+/// `bytes` without a leading UTF-8 byte-order mark.
+pub(super) fn strip_bom(bytes: &[u8]) -> &[u8] {
+    bytes.strip_prefix(BOM).unwrap_or(bytes)
+}
+
+/// The text of a file's bytes without a leading byte-order mark, invalid
+/// UTF-8 replaced by U+FFFD (see [`read_text`]).
 pub(super) fn decode_text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
+    String::from_utf8_lossy(strip_bom(bytes)).into_owned()
 }
 
 /// Non-empty lines with `#` comments removed, with their one-based line
