@@ -266,7 +266,12 @@ pub fn amberg_nicp(
     let mut accepted = Vec::new();
     let mut mean_distance = Vec::new();
     let sqrt_n = (n as f64).sqrt();
-    for &alpha in &opts.stiffness {
+    for (step, &alpha) in opts.stiffness.iter().enumerate() {
+        crate::solve::progress::update_with(
+            || format!("Amberg nonrigid ICP: stiffness {alpha:.3e}, step"),
+            step,
+            opts.stiffness.len(),
+        );
         let mut inner = 0;
         for _ in 0..opts.max_inner.max(1) {
             inner += 1;

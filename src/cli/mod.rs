@@ -6,6 +6,7 @@ mod inspect;
 mod keypoints;
 mod merge;
 mod plot;
+mod progress;
 mod run;
 mod transfer;
 

@@ -169,6 +169,7 @@ fn check_option_dependencies(a: &TransferArgs) -> Result<()> {
 }
 
 pub fn run(a: TransferArgs) -> Result<ExitCode> {
+    let _progress = super::progress::on_terminal();
     let t_all = Instant::now();
     check_option_dependencies(&a)?;
     // Output paths first, so nothing is computed for a run that would refuse.

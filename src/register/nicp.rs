@@ -100,7 +100,8 @@ pub fn nicp(
     let mut example = 0;
     let mut accepted = Vec::new();
     let mut mean_distance = Vec::new();
-    for _ in 0..opts.iterations {
+    for it in 0..opts.iterations {
+        crate::solve::progress::update("nonrigid ICP (FBT): iteration", it, opts.iterations);
         let p = model.positions(&t)?;
         let matches = matcher.matches(&p)?;
         let mut rows: ConstraintRows = feature_rows

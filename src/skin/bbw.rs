@@ -107,7 +107,7 @@ use crate::ops::{cotan_laplacian, mass_matrix, MassKind};
 use crate::solve::qp::{
     project_to_simplex, simplex_rows_qp, AdmmOptions, BoxQp, BoxQpSolution, RowAdmm, RowConstraint,
 };
-use crate::solve::{sparse_from_triplets, SparseCholesky, SparseMatrix};
+use crate::solve::{progress, sparse_from_triplets, SparseCholesky, SparseMatrix};
 use crate::{Error, Result};
 
 /// Which weights to compute (see the module documentation).
@@ -543,12 +543,18 @@ fn per_handle_raw(
     };
     report.seconds[0] = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let step = format!("bounded biharmonic weights: {nh} handles on {nf} free vertices, handle");
+    progress::update(&step, 0, nh);
     let solutions: Vec<Result<BoxQpSolution>> = (0..nh)
         .into_par_iter()
         .map(|k| {
             let bk: Vec<f64> = b.column(k).iter().copied().collect();
             let x0: Vec<f64> = warm.column(k).iter().copied().collect();
-            qp.solve(&bk, 0.0, 1.0, Some(&x0), opts.max_iter, opts.tol)
+            let s = qp.solve(&bk, 0.0, 1.0, Some(&x0), opts.max_iter, opts.tol);
+            let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            progress::update(&step, d, nh);
+            s
         })
         .collect();
     let mut wf = DMatrix::zeros(nf, nh);

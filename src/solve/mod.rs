@@ -12,6 +12,7 @@ pub mod eigen;
 pub mod elastic_net;
 pub mod kmeans;
 pub mod kmedoids;
+pub mod progress;
 pub mod qp;
 pub use cholesky::{Inertia, SparseCholesky, SparseLdlt, SymbolicCholesky};
 pub use eigen::{generalized_eigen, mass_diagonal, EigenOptions, Eigenpairs};

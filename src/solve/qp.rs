@@ -864,6 +864,11 @@ pub fn simplex_rows_qp(
     let mut handles: Vec<Vec<usize>> = vec![Vec::new(); n];
     for it in 1..=max_iter.max(1) {
         iterations = it;
+        super::progress::update(
+            "bounded biharmonic weights (partition of unity): support iteration",
+            it,
+            0,
+        );
         nv = 0;
         for &i in &ordered.order {
             if pivot[i] == usize::MAX || !support[i * m + pivot[i]] {

@@ -93,7 +93,7 @@ use crate::skin::bbw::{BbwOptions, Biharmonic, WeightMode};
 use crate::skin::groups::{group_features, GROUP_KMEANS};
 use crate::skin::{Affine, GroupFeatures};
 use crate::solve::kmeans::{kmeans_with, KMeansOptions};
-use crate::solve::{sparse_from_triplets, SparseCholesky};
+use crate::solve::{progress, sparse_from_triplets, SparseCholesky};
 use crate::{Error, Point, Result};
 
 /// Exact (paper) or fast (cheap screening, exact ranking) selection. Both
@@ -418,6 +418,7 @@ pub fn select_keypoints(
         failed: 0,
         memo: Default::default(),
         exact: 0,
+        step: "key points: stage 1, 1 key point".to_string(),
     };
     let max_k = opts.max_keypoints.min(candidates.len());
 
@@ -431,6 +432,12 @@ pub fn select_keypoints(
     }];
     // `error` is never NaN (failed trials count as +∞).
     while error >= opts.epsilon && set.len() < max_k {
+        sel.step = format!(
+            "key points: stage 1, {} → {} key points (error {error:.4}, ε {})",
+            set.len(),
+            set.len() + 1,
+            opts.epsilon
+        );
         let trials: Vec<Vec<usize>> = candidates
             .iter()
             .filter(|c| !set.contains(c))
@@ -457,9 +464,15 @@ pub fn select_keypoints(
     }
 
     // Stage 2.
-    for _ in 0..opts.max_swap_passes {
+    for pass in 0..opts.max_swap_passes {
         let mut changed = false;
         for t in 0..set.len() {
+            sel.step = format!(
+                "key points: stage 2, pass {}, replacing key point {} of {} (error {error:.4})",
+                pass + 1,
+                t + 1,
+                set.len()
+            );
             let trials: Vec<Vec<usize>> = candidates
                 .iter()
                 .filter(|c| !set.contains(c))
@@ -828,6 +841,8 @@ struct Selector<'c, 'a> {
     memo: std::collections::HashMap<(bool, Vec<usize>), f64>,
     /// Exact evaluations (a subset of `evaluations`).
     exact: usize,
+    /// What the current greedy step is (progress reports only).
+    step: String,
 }
 
 impl Selector<'_, '_> {
@@ -839,9 +854,22 @@ impl Selector<'_, '_> {
             .iter()
             .filter(|s| !self.memo.contains_key(&(is_fast, s.to_vec())))
             .collect();
+        let total = todo.len();
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        let step = format!(
+            "{}: {} trial",
+            self.step,
+            if is_fast { "screening" } else { "exact" }
+        );
+        progress::update(&step, 0, total);
         let results: Vec<Result<f64>> = todo
             .par_iter()
-            .map(|s| ctx.evaluate(s, fast, false).map(|e| e.error))
+            .map(|s| {
+                let r = ctx.evaluate(s, fast, false).map(|e| e.error);
+                let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                progress::update(&step, d, total);
+                r
+            })
             .collect();
         self.evaluations += todo.len();
         if !is_fast {

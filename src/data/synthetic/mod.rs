@@ -150,6 +150,7 @@ impl FaustStyle {
             .into_iter()
             .map(|w| w.0)
             .collect();
+        crate::solve::progress::update("synthetic set: smoothing skinning weights", 0, 0);
         let weights = smooth_weights(&quads, weights, WEIGHT_SMOOTHING << (self.resolution - 1));
         let labels: Vec<usize> = weights
             .iter()
@@ -185,6 +186,7 @@ impl FaustStyle {
             rigs: Vec::new(),
         };
         for s in 0..self.subjects {
+            crate::solve::progress::update("synthetic set: posing subject", s, self.subjects);
             let prop = Proportions::random(self.seed, s, self.spread);
             let (skeleton, cage) = body::build(&prop, self.tail);
             let rest: Vec<Point> = stencil
@@ -365,6 +367,11 @@ pub fn write_faust_style(dir: &Path, set: &SyntheticSet) -> Result<()> {
     for (s, poses) in set.meshes.iter().enumerate() {
         for (p, mesh) in poses.iter().enumerate() {
             let id = SyntheticSet::id(s, p);
+            crate::solve::progress::update(
+                "synthetic set: writing FAUST-style meshes",
+                id,
+                set.meshes.len() * poses.len(),
+            );
             let file = format!("tr_reg_{id:03}.ply");
             write_ply(&dir.join(&file), mesh)?;
             files.push(FileMeta {

@@ -120,7 +120,17 @@ pub fn remesh(mesh: &Mesh, keep: f64, seed: u64) -> Result<Remeshed> {
     let target = ((keep * v0.len() as f64).round() as usize).max(4);
     let mut d = Decimator::new(pos, faces);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    for _ in 0..40 {
+    for pass in 0..40 {
+        crate::solve::progress::update_with(
+            || {
+                format!(
+                    "remeshing: {} → {target} vertices, collapse pass",
+                    d.alive_vertices
+                )
+            },
+            pass,
+            0,
+        );
         if d.alive_vertices <= target {
             break;
         }
