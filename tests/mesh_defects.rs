@@ -1,12 +1,16 @@
 //! Defect report: every planted defect is counted exactly; primitives are
 //! clean with the right topology; real data defects are found. The
 //! result-changing defects (issue 18): listed per kind, repaired where the
-//! repair is standard, refused or repaired by the defect policy.
+//! repair is standard, refused or repaired by the defect policy; `inspect`
+//! exits non-zero for an empty mesh.
+
+mod common;
 
 use std::path::Path;
 
+use common::{deformlab, tmp, write};
 use deformlab::data::shared_data_or_skip;
-use deformlab::mesh::io::read_raw;
+use deformlab::mesh::io::{read_raw, write_ply};
 use deformlab::mesh::primitives::{grid, icosphere, torus};
 use deformlab::mesh::repair::{DefectPolicy, FaceRepair};
 use deformlab::mesh::validate::{DefectKind, DefectReport, LIST_CAP};
@@ -612,4 +616,38 @@ fn policy_warns_refuses_or_repairs() {
         .apply(other.clone(), file, Some((dup.faces(), &plan)))
         .unwrap();
     assert_eq!(c.mesh, other);
+}
+
+// ---- the commands ----
+
+#[test]
+fn inspect_exits_non_zero_for_empty_meshes() {
+    let d = tmp();
+    let empty = write(d.path(), "empty.off", "OFF\n0 0 0\n");
+    let cloud = write(d.path(), "cloud.off", "OFF\n3 0 0\n0 0 0\n1 0 0\n0 1 0\n");
+    let good = d.path().join("tet.ply");
+    write_ply(&good, &tetra_mesh()).unwrap();
+    for (path, needle) in [
+        (&empty, "EMPTY: no faces (0 vertices)"),
+        (&cloud, "EMPTY: no faces (3 vertices)"),
+    ] {
+        for brief in [false, true] {
+            let mut c = deformlab();
+            c.arg("inspect");
+            if brief {
+                c.arg("--brief");
+            }
+            let o = c.arg(path).arg(&good).output().unwrap();
+            let text = String::from_utf8_lossy(&o.stdout);
+            assert_eq!(o.status.code(), Some(1), "{text}");
+            assert!(text.contains(needle), "{text}");
+            assert!(
+                !text.contains(": clean\n") || text.matches(": clean").count() == 1,
+                "{text}"
+            );
+            assert!(text.contains("1 empty or unusable"), "{text}");
+        }
+    }
+    let o = deformlab().arg("inspect").arg(&good).output().unwrap();
+    assert_eq!(o.status.code(), Some(0));
 }
