@@ -1,15 +1,18 @@
 //! Defect report: every planted defect is counted exactly; primitives are
 //! clean with the right topology; real data defects are found. The
 //! result-changing defects (issue 18): listed per kind, repaired where the
-//! repair is standard, refused or repaired by the defect policy; `inspect`
+//! repair is standard, and handled where meshes are loaded for a
+//! computation (`transfer`, `keypoints`: one warning per file and kind,
+//! logged; `--strict` refuses; `--repair` repairs and says so); `inspect`
 //! exits non-zero for an empty mesh.
 
 mod common;
 
 use std::path::Path;
 
-use common::{deformlab, tmp, write};
+use common::{deformlab, ok, tmp, write};
 use deformlab::data::shared_data_or_skip;
+use deformlab::data::synthetic::FaustStyle;
 use deformlab::mesh::io::{read_raw, write_ply};
 use deformlab::mesh::primitives::{grid, icosphere, torus};
 use deformlab::mesh::repair::{DefectPolicy, FaceRepair};
@@ -620,6 +623,28 @@ fn policy_warns_refuses_or_repairs() {
 
 // ---- the commands ----
 
+/// A small synthetic subject (2 subjects × 3 poses, 1.7k vertices).
+fn synthetic() -> Vec<Vec<Mesh>> {
+    FaustStyle {
+        subjects: 2,
+        poses: 3,
+        resolution: 1,
+        ..Default::default()
+    }
+    .generate()
+    .unwrap()
+    .meshes
+}
+
+/// `m` with its first `k` faces appended again (k duplicate faces).
+fn duplicated(m: &Mesh, k: usize) -> Mesh {
+    m.with_faces([m.faces(), &m.faces()[..k]].concat()).unwrap()
+}
+
+fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
 #[test]
 fn inspect_exits_non_zero_for_empty_meshes() {
     let d = tmp();
@@ -650,4 +675,132 @@ fn inspect_exits_non_zero_for_empty_meshes() {
     }
     let o = deformlab().arg("inspect").arg(&good).output().unwrap();
     assert_eq!(o.status.code(), Some(0));
+}
+
+#[test]
+fn keypoints_and_transfer_warn_refuse_and_repair() {
+    let d = tmp();
+    let set = synthetic();
+    let a = d.path().join("a.ply");
+    let a1 = d.path().join("a1.ply");
+    let b = d.path().join("b.ply");
+    write_ply(&a, &duplicated(&set[0][0], 3)).unwrap();
+    write_ply(&a1, &duplicated(&set[0][1], 3)).unwrap();
+    // The target: one face with a repeated vertex.
+    let t = &set[1][0];
+    write_ply(
+        &b,
+        &t.with_faces([t.faces(), &[[0, 0, 1]]].concat()).unwrap(),
+    )
+    .unwrap();
+    let sel = |cmd: &str| -> Vec<String> {
+        let mut v: Vec<String> = [cmd, "--source"].iter().map(|s| s.to_string()).collect();
+        v.push(a.display().to_string());
+        v.push("--deformed".into());
+        v.push(a1.display().to_string());
+        for s in [
+            "--candidates",
+            "8",
+            "--max-keypoints",
+            "3",
+            "--epsilon",
+            "0",
+        ] {
+            v.push(s.into());
+        }
+        v
+    };
+    // Default: one warning per file and kind, and a result.
+    let o = ok(&sel("keypoints"));
+    let err = stderr(&o);
+    let warn: Vec<&str> = err.lines().filter(|l| l.starts_with("warning: ")).collect();
+    // a, a1: duplicates, non-manifold edges and vertices.
+    assert_eq!(warn.len(), 6, "{err}");
+    assert!(
+        warn.iter()
+            .any(|l| l.contains("a.ply: 3 duplicate faces (first: ")),
+        "{err}"
+    );
+    assert!(
+        warn.iter().any(|l| l.contains("a1.ply: 3 duplicate faces")),
+        "{err}"
+    );
+    // --strict: refused, naming the file.
+    let mut args = sel("keypoints");
+    args.push("--strict".into());
+    let o = deformlab().args(&args).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(
+        err.contains("a.ply") && err.contains("3 duplicate faces") && err.contains("strict"),
+        "{err}"
+    );
+    // --repair: repaired and said so, no warning left; logged.
+    let out = d.path().join("kp");
+    let mut args = sel("keypoints");
+    args.extend([
+        "--repair".to_string(),
+        "--out".into(),
+        out.display().to_string(),
+    ]);
+    let o = ok(&args);
+    let err = stderr(&o);
+    assert!(!err.contains("warning:"), "{err}");
+    let rep: Vec<&str> = err
+        .lines()
+        .filter(|l| l.starts_with("repaired: "))
+        .collect();
+    assert_eq!(rep.len(), 2, "{err}");
+    assert!(rep[0].contains("a.ply: dropped 3 duplicate faces"), "{err}");
+    let log: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("log.json")).unwrap()).unwrap();
+    assert_eq!(log["settings"]["repair"], true);
+    assert_eq!(
+        log["mesh_checks"].as_array().map(|a| a.len()),
+        Some(2),
+        "{log}"
+    );
+
+    // transfer: the target's defect is warned, and with --repair repaired.
+    let mut args = sel("transfer");
+    args.extend([
+        "--target".to_string(),
+        b.display().to_string(),
+        "--same-connectivity".into(),
+        "--out".into(),
+        d.path().join("t1").display().to_string(),
+    ]);
+    let o = ok(&args);
+    let err = stderr(&o);
+    assert!(
+        err.lines().any(|l| l.starts_with("warning: ")
+            && l.contains("b.ply: 1 faces with a repeated vertex (first: ")),
+        "{err}"
+    );
+    let log: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("t1/log.json")).unwrap())
+            .unwrap();
+    assert_eq!(
+        log["mesh_checks"].as_array().map(|a| a.len()),
+        Some(3),
+        "{log}"
+    );
+    let mut args = sel("transfer");
+    args.extend([
+        "--target".to_string(),
+        b.display().to_string(),
+        "--same-connectivity".into(),
+        "--repair".into(),
+        "--strict".into(),
+        "--out".into(),
+        d.path().join("t2").display().to_string(),
+    ]);
+    let o = ok(&args);
+    let err = stderr(&o);
+    assert!(
+        err.lines().any(|l| l.starts_with("repaired: ")
+            && l.contains("b.ply: dropped 1 zero-area or repeated-vertex faces")),
+        "{err}"
+    );
+    assert!(!err.contains("warning:"), "{err}");
 }
