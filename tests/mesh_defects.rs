@@ -2,15 +2,15 @@
 //! clean with the right topology; real data defects are found. The
 //! result-changing defects (issue 18): listed per kind, repaired where the
 //! repair is standard, and handled where meshes are loaded for a
-//! computation (`transfer`, `keypoints`: one warning per file and kind,
-//! logged; `--strict` refuses; `--repair` repairs and says so); `inspect`
-//! exits non-zero for an empty mesh.
+//! computation (`run`, `transfer`, `keypoints`: one warning per file and
+//! kind, recorded; `--strict` refuses; `--repair` repairs and says so);
+//! `inspect` exits non-zero for an empty mesh.
 
 mod common;
 
 use std::path::Path;
 
-use common::{deformlab, ok, tmp, write};
+use common::{csv_rows, deformlab, ok, tmp, write};
 use deformlab::data::shared_data_or_skip;
 use deformlab::data::synthetic::FaustStyle;
 use deformlab::mesh::io::{read_raw, write_ply};
@@ -803,4 +803,121 @@ fn keypoints_and_transfer_warn_refuse_and_repair() {
         "{err}"
     );
     assert!(!err.contains("warning:"), "{err}");
+}
+
+const RUN: &str = r#"
+name = "defects"
+seed = 1
+
+[dataset.faust]
+path = "faust"
+
+[cases]
+sources = [0]
+targets = [1]
+
+[[methods]]
+name = "identity"
+kind = "identity"
+"#;
+
+#[test]
+fn run_warns_records_refuses_and_repairs() {
+    let d = tmp();
+    let faust = d.path().join("faust");
+    std::fs::create_dir_all(&faust).unwrap();
+    for (s, poses) in synthetic().iter().enumerate() {
+        for (p, m) in poses.iter().enumerate() {
+            let path = faust.join(format!("tr_reg_{:03}.ply", 10 * s + p));
+            if (s, p) == (0, 0) {
+                write_ply(&path, &duplicated(m, 2)).unwrap();
+            } else {
+                write_ply(&path, m).unwrap();
+            }
+        }
+    }
+    let cfg = write(d.path(), "defects.toml", RUN);
+    let run = |out: &str, extra: &[&str]| {
+        let mut c = deformlab();
+        c.arg("run")
+            .arg(&cfg)
+            .arg("--out")
+            .arg(d.path().join(out))
+            .arg("--no-plots");
+        c.args(extra).output().unwrap()
+    };
+    // Default: warned once per kind, recorded, computed.
+    let o = run("plain", &[]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    let warn: Vec<&str> = err.lines().filter(|l| l.starts_with("warning: ")).collect();
+    assert!(
+        warn[0].starts_with("warning: tr_reg_000.ply: 2 duplicate faces (first: "),
+        "{err}"
+    );
+    assert!(warn[1].contains("tr_reg_000.ply: ") && warn[1].contains("non-manifold edges"));
+    assert!(warn[2].contains("tr_reg_000.ply: ") && warn[2].contains("non-manifold vertices"));
+    assert_eq!(warn.len(), 3, "{err}");
+    let dir = d.path().join("plain/defects");
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("manifest.json")).unwrap()).unwrap();
+    let notes = &m["invocations"][0]["mesh_defects"];
+    assert_eq!(notes[0]["file"], "tr_reg_000.ply", "{notes}");
+    assert_eq!(notes[0]["kind"], "duplicate_faces");
+    assert_eq!(notes[0]["count"], 2);
+    assert!(csv_rows(&dir.join("cases.csv"))
+        .iter()
+        .all(|r| r["status"] == "ok"));
+    // A resumed run serves no mesh: no warning again.
+    let o = run("plain", &[]);
+    assert!(!stderr(&o).contains("warning:"), "{}", stderr(&o));
+
+    // --strict: one error naming the file, before any case.
+    let o = run("strict", &["--strict"]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("tr_reg_000.ply: mesh: 2 duplicate faces"),
+        "{err}"
+    );
+    assert!(!d.path().join("strict/defects/cases").exists());
+
+    // --repair: repaired and said so; the config hash includes it.
+    let o = run("repair", &["--repair", "--strict"]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("warning:"), "{err}");
+    assert!(
+        err.lines()
+            .any(|l| l == "repaired: tr_reg_000.ply: dropped 2 duplicate faces"),
+        "{err}"
+    );
+    let m = std::fs::read_to_string(d.path().join("repair/defects/manifest.json")).unwrap();
+    assert!(
+        m.contains("tr_reg_000.ply: repaired: dropped 2 duplicate faces"),
+        "{m}"
+    );
+    let o = run("plain", &["--repair"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("dataset.repair"), "{}", stderr(&o));
+    // The same as the config key.
+    let keyed = write(
+        d.path(),
+        "keyed.toml",
+        RUN.replace(
+            "[dataset.faust]",
+            "[dataset]\nrepair = true\n\n[dataset.faust]",
+        ),
+    );
+    let o = deformlab()
+        .arg("run")
+        .arg(&keyed)
+        .arg("--out")
+        .arg(d.path().join("repair"))
+        .arg("--no-plots")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("defects: 0 computed"), "{out}");
 }

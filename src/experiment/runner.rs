@@ -21,10 +21,11 @@ use rayon::prelude::*;
 use super::cases::{generate_cases, Case};
 use super::config::{load_config, LoadedConfig, NamedMethod};
 use super::dataset::Collection;
-use super::manifest::{read_manifest, write_manifest, Invocation, Manifest, Shard};
+use super::manifest::{read_manifest, write_manifest, DefectNote, Invocation, Manifest, Shard};
 use super::record::run_method;
 use super::store::{secs, CaseResult, RenderOut, Store, StoredConfig};
 use crate::mesh::io::write_ply;
+use crate::mesh::repair::DefectPolicy;
 use crate::{Error, Result};
 
 /// Options of [`run_configs`].
@@ -41,6 +42,10 @@ pub struct RunOptions {
     pub progress: bool,
     /// Stop after this many newly finished case × method results (tests).
     pub max_new: Option<usize>,
+    /// Command-line `--strict` / `--repair`: each one that is on overrides
+    /// the configs' `[dataset] strict` / `repair` (and, for `repair`, the
+    /// config hash, as the key would).
+    pub defects: DefectPolicy,
 }
 
 /// What a run of one config did.
@@ -64,10 +69,18 @@ fn unix_now() -> u64 {
 
 /// Runs every config in turn (see the module documentation).
 pub fn run_configs(configs: &[PathBuf], opts: &RunOptions) -> Result<Vec<RunSummary>> {
-    let loaded = configs
+    let mut loaded = configs
         .iter()
         .map(|c| load_config(c))
         .collect::<Result<Vec<_>>>()?;
+    for l in &mut loaded {
+        if opts.defects.strict {
+            l.config.dataset.strict = Some(true);
+        }
+        if opts.defects.repair {
+            l.config.dataset.repair = Some(true);
+        }
+    }
     let mut names = std::collections::HashSet::new();
     for l in &loaded {
         if !names.insert(l.config.name.clone()) {
@@ -114,6 +127,36 @@ fn save_render_base(col: &Collection, case: &Case, dir: &Path, poses: usize) -> 
                 s.push_str(&format!("{i},{l}\n"));
             }
             super::store::write_file(&path, s.as_bytes(), false)?;
+        }
+    }
+    Ok(())
+}
+
+/// Serves every mesh that the cases with work left use, before any case
+/// runs, so that the defect warnings come first and, in strict mode, a
+/// refused mesh (or one that cannot be read) stops the run with one error
+/// naming the file instead of failing case after case. Without strict mode
+/// a mesh that cannot be read is left to the cases that use it (each fails
+/// with the error, as a result).
+fn serve_case_meshes(col: &Collection, cases: &[&Case], strict: bool) -> Result<()> {
+    let mut seen = std::collections::BTreeSet::new();
+    for c in cases {
+        let mut want = vec![(&c.source, &c.reference), (&c.target, &c.reference)];
+        for (p, &has) in c.poses.iter().zip(&c.truth) {
+            want.push((&c.source, p));
+            if has {
+                want.push((&c.target, p));
+            }
+        }
+        for (s, p) in want {
+            if !seen.insert((s.clone(), p.clone())) {
+                continue;
+            }
+            if let Err(e) = col.mesh(s, p) {
+                if strict {
+                    return Err(e);
+                }
+            }
         }
     }
     Ok(())
@@ -197,12 +240,6 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
         .iter()
         .filter(|c| opts.shard.is_none_or(|s| s.contains(c.index)))
         .collect();
-    let render_cases = l.config.outputs.render_cases();
-    let render_poses = l.config.outputs.render_poses();
-    for c in mine.iter().filter(|c| c.index < render_cases) {
-        save_render_base(&col, c, &store.mesh_dir(&c.id), render_poses)?;
-    }
-
     let mut work: Vec<(&Case, &NamedMethod)> = Vec::new();
     let mut reused = 0;
     for c in &mine {
@@ -216,6 +253,15 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
     }
     if let Some(k) = opts.max_new {
         work.truncate(k);
+    }
+    let mut pending: Vec<&Case> = work.iter().map(|(c, _)| *c).collect();
+    pending.dedup_by_key(|c| c.index);
+    serve_case_meshes(&col, &pending, l.config.dataset.policy().strict)?;
+
+    let render_cases = l.config.outputs.render_cases();
+    let render_poses = l.config.outputs.render_poses();
+    for c in mine.iter().filter(|c| c.index < render_cases) {
+        save_render_base(&col, c, &store.mesh_dir(&c.id), render_poses)?;
     }
     if opts.progress {
         eprintln!(
@@ -348,7 +394,17 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
         git_revision: git.clone(),
         computed,
         reused,
-        repairs: col.repairs().iter().map(|r| r.to_string()).collect(),
+        repairs: col
+            .repairs()
+            .iter()
+            .map(|r| r.to_string())
+            .chain(
+                col.checks()
+                    .iter()
+                    .filter_map(|c| Some(format!("{}: repaired: {}", c.file, c.repair.as_ref()?))),
+            )
+            .collect(),
+        mesh_defects: DefectNote::of(&col.checks()),
     });
     let shards = match opts.shard {
         None => None,
