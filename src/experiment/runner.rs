@@ -24,7 +24,7 @@ use super::dataset::Collection;
 use super::manifest::{read_manifest, write_manifest, DefectNote, Invocation, Manifest, Shard};
 use super::record::run_method;
 use super::store::{secs, CaseResult, RenderOut, Store, StoredConfig};
-use crate::mesh::io::write_ply;
+use crate::mesh::io::{temp, write_ply};
 use crate::mesh::repair::DefectPolicy;
 use crate::{Error, Result};
 
@@ -225,7 +225,7 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
     let dir = opts.out.join(name);
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     let store = Store::new(&dir);
-    super::store::remove_temporaries(&dir)?;
+    super::store::remove_stale_temporaries(&dir)?;
     let hash = l.config.hash();
     let stored = StoredConfig {
         hash: hash.clone(),
@@ -576,7 +576,7 @@ fn copy_tree(from: &Path, to: &Path) -> Result<()> {
         let q = to.join(e.file_name());
         if p.is_dir() {
             copy_tree(&p, &q)?;
-        } else if !q.exists() && !e.file_name().to_string_lossy().ends_with(".tmp") {
+        } else if !q.exists() && !temp::is_temporary(&e.file_name().to_string_lossy()) {
             let bytes = std::fs::read(&p).map_err(|e| Error::io(&p, e))?;
             super::store::write_file(&q, &bytes, false)?;
         }
