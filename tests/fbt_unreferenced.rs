@@ -77,6 +77,7 @@ fbt = { task = "projection", q = 2 }
         plots: false,
         progress: false,
         max_new: None,
+        wait: true,
         defects: Default::default(),
     };
     let s = run_configs(std::slice::from_ref(&cfg), &opts).unwrap();

@@ -20,6 +20,9 @@ use deformlab::Result;
     cases/ (one file per finished case × method)}. Re-running continues an interrupted run\n\
     (finished results are kept, never overwritten); a changed config is refused for an\n\
     existing folder. Relative dataset paths in a config are relative to the config file.\n\
+    One process writes an experiment folder at a time: a second run of a config waits for the\n\
+    first (it prints the holder's pid) or, with --no-wait, stops; shards of one config\n\
+    (--shard i/N, same N) can run side by side in one folder.\n\
     Mesh defects that change results are printed as one warning per file and kind and recorded\n\
     in manifest.json; --strict refuses such meshes, --repair fixes the standard ones.")]
 pub struct RunArgs {
@@ -42,6 +45,11 @@ pub struct RunArgs {
     /// No progress output.
     #[arg(long)]
     pub quiet: bool,
+    /// If another process uses an experiment folder (a run of the same
+    /// config, or a shard of it), stop with an error naming it instead of
+    /// waiting for it.
+    #[arg(long)]
+    pub no_wait: bool,
     /// Refuse meshes with defects that change results (duplicate or
     /// zero-area faces, non-manifold edges or vertices, inconsistent winding,
     /// several components, unreferenced vertices) instead of warning; the
@@ -68,6 +76,7 @@ pub fn run(a: RunArgs) -> Result<ExitCode> {
         max_new: std::env::var("DEFORMLAB_RUN_MAX_NEW")
             .ok()
             .and_then(|s| s.parse().ok()),
+        wait: !a.no_wait,
         defects: DefectPolicy {
             strict: a.strict,
             repair: a.repair,

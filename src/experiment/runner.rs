@@ -9,6 +9,11 @@
 //! (atomically); tables are rebuilt from the store at the end, in case
 //! order, so results do not depend on K or on interruptions. A failing
 //! method on a case is a result too (status `failed: …`).
+//!
+//! One writer per folder ([`super::lock`]): a run holds the experiment
+//! folder exclusively (shards: shared, and their own shard exclusively), so
+//! a second run of the config waits for the first (or, with `--no-wait`,
+//! stops with an error naming it) and then finds every result stored.
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -21,6 +26,7 @@ use rayon::prelude::*;
 use super::cases::{generate_cases, Case};
 use super::config::{load_config, LoadedConfig, NamedMethod};
 use super::dataset::Collection;
+use super::lock::FolderLock;
 use super::manifest::{read_manifest, write_manifest, DefectNote, Invocation, Manifest, Shard};
 use super::record::run_method;
 use super::store::{secs, CaseResult, RenderOut, Store, StoredConfig};
@@ -42,6 +48,9 @@ pub struct RunOptions {
     pub progress: bool,
     /// Stop after this many newly finished case × method results (tests).
     pub max_new: Option<usize>,
+    /// Wait for another process that uses an experiment folder (after a
+    /// message naming it); `false`: an error naming it (`--no-wait`).
+    pub wait: bool,
     /// Command-line `--strict` / `--repair`: each one that is on overrides
     /// the configs' `[dataset] strict` / `repair` (and, for `repair`, the
     /// config hash, as the key would).
@@ -224,8 +233,8 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
     let name = &l.config.name;
     let dir = opts.out.join(name);
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let lock = FolderLock::for_run(&dir, opts.shard, opts.wait)?;
     let store = Store::new(&dir);
-    super::store::remove_stale_temporaries(&dir)?;
     let hash = l.config.hash();
     let stored = StoredConfig {
         hash: hash.clone(),
@@ -277,6 +286,7 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
     }
     let progress = Progress::new(work.len(), name, opts.progress);
     let done = AtomicUsize::new(0);
+    let dropped = AtomicUsize::new(0);
     let first_error: Mutex<Option<Error>> = Mutex::new(None);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads.max(1))
@@ -337,11 +347,19 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
                 }
             };
             r.set("status", status.clone());
-            if let Err(e) = store.put(&r) {
-                if let Ok(mut slot) = first_error.lock() {
-                    slot.get_or_insert(e);
+            match store.put(&r) {
+                Ok(true) => {}
+                // Stored meanwhile by a run of an overlapping shard: its
+                // result stays, this one is dropped.
+                Ok(false) => {
+                    dropped.fetch_add(1, Ordering::Relaxed);
                 }
-                return;
+                Err(e) => {
+                    if let Ok(mut slot) = first_error.lock() {
+                        slot.get_or_insert(e);
+                    }
+                    return;
+                }
             }
             let k = done.fetch_add(1, Ordering::Relaxed) + 1;
             progress.tick(
@@ -361,8 +379,13 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
     if let Some(e) = first_error.into_inner().ok().flatten() {
         return Err(e);
     }
-    let computed = done.load(Ordering::Relaxed);
+    let computed = done.load(Ordering::Relaxed) - dropped.load(Ordering::Relaxed);
+    let reused = reused + dropped.load(Ordering::Relaxed);
 
+    // One process at a time rebuilds the tables, the manifest and the
+    // plots from everything stored (shards of one folder finish in any
+    // order; the last leaves complete tables).
+    let _tables = lock.tables()?;
     let order: Vec<String> = l.methods.iter().map(|m| m.name.clone()).collect();
     let results = store.all(&order)?;
     store.write_tables(&results)?;
@@ -494,7 +517,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path, plots: bool) -> Result<RunSummary> 
             )));
         }
     }
-    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    let _lock = FolderLock::exclusive(out, "merge")?;
     let store = Store::new(out);
     let stored = Store::new(&inputs[0]).read_config()?;
     store.bind(&stored)?;
