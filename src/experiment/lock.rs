@@ -190,9 +190,17 @@ impl FolderLock {
         let was_alone = match FileExt::try_lock(&f) {
             Ok(()) => {
                 remove_stale_temporaries(dir)?;
-                // Converting to shared lets other shards in.
-                FileExt::lock_shared(&f).map_err(|e| Error::io(&main, e))?;
-                sign(&mut f, &what);
+                // Converting to shared lets other shards in. The kernel may
+                // release the exclusive lock first and grant it to a waiting
+                // process: then wait for that one like any shard would.
+                match FileExt::try_lock_shared(&f) {
+                    Ok(()) => sign(&mut f, &what),
+                    Err(TryLockError::WouldBlock) => {
+                        drop(f);
+                        f = acquire(&main, Mode::Shared, wait, dir, &what)?;
+                    }
+                    Err(TryLockError::Error(e)) => return Err(Error::io(&main, e)),
+                }
                 true
             }
             Err(TryLockError::WouldBlock) => {
