@@ -63,8 +63,8 @@ pub fn is_own_temporary(name: &str) -> bool {
 }
 
 /// Creates a fresh temporary next to `path` and writes `bytes` to it
-/// (`sync`: and flushes it to the disk). On failure the temporary is
-/// removed and the error names it.
+/// (`sync`: and flushes it to the disk). On failure (a full disk) the
+/// temporary is removed and the error names `path`.
 pub fn write_temp(path: &Path, bytes: &[u8], sync: bool) -> Result<PathBuf> {
     let tmp = temp_path(path, None);
     let written = (|| {
@@ -79,7 +79,7 @@ pub fn write_temp(path: &Path, bytes: &[u8], sync: bool) -> Result<PathBuf> {
         Ok(()) => Ok(tmp),
         Err(e) => {
             let _ = std::fs::remove_file(&tmp);
-            Err(Error::io(&tmp, e))
+            Err(Error::io(path, e))
         }
     }
 }
