@@ -89,6 +89,8 @@ fn tiny_fbt_config_runs_through_the_harness() {
         plots: true,
         progress: false,
         max_new: None,
+        wait: true,
+        defects: Default::default(),
     };
     let s = run_configs(std::slice::from_ref(&cfg), &opts).unwrap();
     assert_eq!(s[0].computed, 8);

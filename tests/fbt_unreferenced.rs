@@ -77,6 +77,8 @@ fbt = { task = "projection", q = 2 }
         plots: false,
         progress: false,
         max_new: None,
+        wait: true,
+        defects: Default::default(),
     };
     let s = run_configs(std::slice::from_ref(&cfg), &opts).unwrap();
     assert_eq!(s[0].failed, 0, "a method failed on the class with debris");

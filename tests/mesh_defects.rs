@@ -1,10 +1,22 @@
 //! Defect report: every planted defect is counted exactly; primitives are
-//! clean with the right topology; real data defects are found.
+//! clean with the right topology; real data defects are found. The
+//! result-changing defects (issue 18): listed per kind, repaired where the
+//! repair is standard, and handled where meshes are loaded for a
+//! computation (`run`, `transfer`, `keypoints`: one warning per file and
+//! kind, recorded; `--strict` refuses; `--repair` repairs and says so);
+//! `inspect` exits non-zero for an empty mesh.
 
+mod common;
+
+use std::path::Path;
+
+use common::{csv_rows, deformlab, ok, tmp, write};
 use deformlab::data::shared_data_or_skip;
-use deformlab::mesh::io::read_raw;
+use deformlab::data::synthetic::FaustStyle;
+use deformlab::mesh::io::{read_raw, write_ply};
 use deformlab::mesh::primitives::{grid, icosphere, torus};
-use deformlab::mesh::validate::{DefectReport, LIST_CAP};
+use deformlab::mesh::repair::{DefectPolicy, FaceRepair};
+use deformlab::mesh::validate::{DefectKind, DefectReport, LIST_CAP};
 use deformlab::mesh::{Face, Mesh, RawMesh};
 use deformlab::Point;
 
@@ -396,4 +408,516 @@ fn real_data_survey() {
             }
         }
     }
+}
+
+fn kinds(m: &Mesh) -> Vec<DefectKind> {
+    DefectReport::of_mesh(m)
+        .result_defects()
+        .iter()
+        .map(|d| d.kind)
+        .collect()
+}
+
+fn tetra_mesh() -> Mesh {
+    Mesh::try_from(tetra()).unwrap()
+}
+
+#[test]
+fn result_defects_list_each_kind_once_and_not_boundaries() {
+    assert!(kinds(&tetra_mesh()).is_empty());
+    // An open surface is valid input.
+    assert!(kinds(&grid(4, 3)).is_empty());
+    let m = tetra_mesh();
+    let dup = m
+        .with_faces([m.faces(), &[[0, 2, 1], [2, 1, 0]]].concat())
+        .unwrap();
+    let r = DefectReport::of_mesh(&dup).result_defects();
+    // Duplicates, and their edges and vertices used too often.
+    let k: Vec<DefectKind> = r.iter().map(|d| d.kind).collect();
+    assert_eq!(
+        k,
+        [
+            DefectKind::DuplicateFaces,
+            DefectKind::NonManifoldEdges,
+            DefectKind::NonManifoldVertices
+        ]
+    );
+    assert_eq!(r[0].to_string(), "2 duplicate faces (first: 4 5)");
+    // Flipped face, an unreferenced vertex, a second component.
+    let mut raw = tetra();
+    raw.faces[3] = [0, 2, 3];
+    raw.vertices.push(p(5.0, 5.0, 5.0));
+    let far: Vec<Point> = tetra()
+        .vertices
+        .iter()
+        .map(|q| q + Point::new(3.0, 0.0, 0.0).coords)
+        .collect();
+    raw.vertices.extend(far);
+    raw.faces
+        .extend(tetra().faces.iter().map(|f| [f[0] + 5, f[1] + 5, f[2] + 5]));
+    let m = Mesh::try_from(raw).unwrap();
+    assert_eq!(
+        kinds(&m),
+        [
+            DefectKind::InconsistentOrientation,
+            DefectKind::SeveralComponents,
+            DefectKind::UnreferencedVertices
+        ]
+    );
+    let text: Vec<String> = DefectReport::of_mesh(&m)
+        .result_defects()
+        .iter()
+        .map(|d| d.to_string())
+        .collect();
+    assert!(
+        text[0].contains("1 faces wound against the rest"),
+        "{text:?}"
+    );
+    assert_eq!(text[1], "2 components (faces: 4 4)");
+    assert_eq!(text[2], "1 unreferenced vertices (first: 4)");
+}
+
+#[test]
+fn an_empty_mesh_is_not_clean() {
+    let r = DefectReport::of(&RawMesh::default());
+    assert!(!r.is_clean());
+    assert!(r.summary().contains("empty (no faces)"), "{}", r.summary());
+    assert!(r.to_string().contains("empty (no faces)"));
+}
+
+#[test]
+fn repair_drops_duplicates_and_degenerate_faces_and_winds_components() {
+    let mut raw = tetra();
+    // Vertex 4 on edge 0-1: the face (0, 4, 1) has zero area.
+    raw.vertices.push(p(0.5, 0.0, 0.0));
+    raw.faces.extend([[0, 4, 1], [1, 3, 0], [2, 2, 3]]);
+    // A second tetrahedron with two of four faces reversed (a tie: the
+    // first face's winding is kept).
+    let n = raw.vertices.len();
+    raw.vertices
+        .extend(tetra().vertices.iter().map(|q| p(q.x + 3.0, q.y, q.z)));
+    let mut t = tetra().faces;
+    t[1].swap(1, 2);
+    t[2].swap(1, 2);
+    raw.faces
+        .extend(t.iter().map(|f| [f[0] + n, f[1] + n, f[2] + n]));
+    let m = Mesh::try_from(raw).unwrap();
+    let plan = FaceRepair::plan(&m);
+    assert_eq!(
+        (
+            plan.duplicate,
+            plan.degenerate,
+            plan.flipped,
+            plan.unoriented
+        ),
+        (1, 2, 2, 0)
+    );
+    assert_eq!(
+        plan.to_string(),
+        "dropped 1 duplicate faces, dropped 2 zero-area or repeated-vertex faces, \
+         reversed the winding of 2 faces (one winding per component)"
+    );
+    let fixed = m.with_faces(plan.faces.clone()).unwrap();
+    // Left: the vertex only the zero-area face used, and two components.
+    assert_eq!(
+        kinds(&fixed),
+        [
+            DefectKind::SeveralComponents,
+            DefectKind::UnreferencedVertices
+        ]
+    );
+    assert_eq!(fixed.faces()[..4], tetra().faces[..]);
+    // Nothing to repair on a clean mesh.
+    assert!(!FaceRepair::plan(&icosphere(1)).changed());
+}
+
+#[test]
+fn repair_reverses_the_minority_and_leaves_a_mobius_band() {
+    let s = icosphere(1);
+    let faces: Vec<Face> = s
+        .faces()
+        .iter()
+        .enumerate()
+        .map(|(i, &[a, b, c])| if i % 5 == 0 { [a, c, b] } else { [a, b, c] })
+        .collect();
+    let m = s.with_faces(faces).unwrap();
+    let plan = FaceRepair::plan(&m);
+    assert_eq!(plan.flipped, s.n_faces().div_ceil(5));
+    assert_eq!(plan.faces, s.faces());
+    // Möbius band (as in `mobius_strip_is_not_orientable`): left alone.
+    let n = 12;
+    let mut vertices = Vec::new();
+    for i in 0..n {
+        let u = std::f64::consts::TAU * i as f64 / n as f64;
+        for s in [-0.3, 0.3] {
+            let r = 1.0 + s * (u / 2.0).cos();
+            vertices.push(p(r * u.cos(), r * u.sin(), s * (u / 2.0).sin()));
+        }
+    }
+    let mut faces: Vec<Face> = Vec::new();
+    for i in 0..n {
+        let (a, b) = (2 * i, 2 * i + 1);
+        let (c, d) = if i + 1 < n {
+            (2 * i + 2, 2 * i + 3)
+        } else {
+            (1, 0)
+        };
+        faces.push([a, b, d]);
+        faces.push([a, d, c]);
+    }
+    let band = Mesh::new(vertices, faces.clone()).unwrap();
+    let plan = FaceRepair::plan(&band);
+    assert_eq!((plan.flipped, plan.unoriented), (0, 1));
+    assert_eq!(plan.faces, faces);
+}
+
+#[test]
+fn policy_warns_refuses_or_repairs() {
+    let m = tetra_mesh();
+    let dup = m.with_faces([m.faces(), &[m.faces()[0]]].concat()).unwrap();
+    let file = Path::new("dir/dup.ply");
+    // Default: the mesh as it is, its defects listed.
+    let c = DefectPolicy::default()
+        .apply(dup.clone(), file, None)
+        .unwrap();
+    assert_eq!(c.mesh, dup);
+    assert!(c.repair.is_none());
+    assert_eq!(c.defects.len(), 3);
+    // Strict: an error naming the file and every kind.
+    let strict = DefectPolicy {
+        strict: true,
+        ..Default::default()
+    };
+    let e = strict
+        .apply(dup.clone(), file, None)
+        .unwrap_err()
+        .to_string();
+    for needle in [
+        "dir/dup.ply",
+        "1 duplicate faces",
+        "non-manifold edges",
+        "strict",
+    ] {
+        assert!(e.contains(needle), "{needle}: {e}");
+    }
+    // Repair (and strict): repaired, nothing left.
+    let both = DefectPolicy {
+        strict: true,
+        repair: true,
+    };
+    let c = both.apply(dup.clone(), file, None).unwrap();
+    assert_eq!(c.mesh, m);
+    assert_eq!(c.repair.as_ref().map(|r| r.duplicate), Some(1));
+    assert!(c.defects.is_empty());
+    // A shared plan is used for a mesh with the planned face list only.
+    let plan = FaceRepair::plan(&dup);
+    let moved = dup.map_vertices(|q| p(2.0 * q.x, q.y, q.z)).unwrap();
+    let c = both.apply(moved, file, Some((dup.faces(), &plan))).unwrap();
+    assert_eq!(c.mesh.faces(), m.faces());
+    let other = icosphere(0);
+    let c = both
+        .apply(other.clone(), file, Some((dup.faces(), &plan)))
+        .unwrap();
+    assert_eq!(c.mesh, other);
+}
+
+// ---- the commands ----
+
+/// A small synthetic subject (2 subjects × 3 poses, 1.7k vertices).
+fn synthetic() -> Vec<Vec<Mesh>> {
+    FaustStyle {
+        subjects: 2,
+        poses: 3,
+        resolution: 1,
+        ..Default::default()
+    }
+    .generate()
+    .unwrap()
+    .meshes
+}
+
+/// `m` with its first `k` faces appended again (k duplicate faces).
+fn duplicated(m: &Mesh, k: usize) -> Mesh {
+    m.with_faces([m.faces(), &m.faces()[..k]].concat()).unwrap()
+}
+
+fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn inspect_exits_non_zero_for_empty_meshes() {
+    let d = tmp();
+    let empty = write(d.path(), "empty.off", "OFF\n0 0 0\n");
+    let cloud = write(d.path(), "cloud.off", "OFF\n3 0 0\n0 0 0\n1 0 0\n0 1 0\n");
+    let good = d.path().join("tet.ply");
+    write_ply(&good, &tetra_mesh()).unwrap();
+    for (path, needle) in [
+        (&empty, "EMPTY: no faces (0 vertices)"),
+        (&cloud, "EMPTY: no faces (3 vertices)"),
+    ] {
+        for brief in [false, true] {
+            let mut c = deformlab();
+            c.arg("inspect");
+            if brief {
+                c.arg("--brief");
+            }
+            let o = c.arg(path).arg(&good).output().unwrap();
+            let text = String::from_utf8_lossy(&o.stdout);
+            assert_eq!(o.status.code(), Some(1), "{text}");
+            assert!(text.contains(needle), "{text}");
+            assert!(
+                !text.contains(": clean\n") || text.matches(": clean").count() == 1,
+                "{text}"
+            );
+            assert!(text.contains("1 empty or unusable"), "{text}");
+        }
+    }
+    let o = deformlab().arg("inspect").arg(&good).output().unwrap();
+    assert_eq!(o.status.code(), Some(0));
+}
+
+#[test]
+fn keypoints_and_transfer_warn_refuse_and_repair() {
+    let d = tmp();
+    let set = synthetic();
+    let a = d.path().join("a.ply");
+    let a1 = d.path().join("a1.ply");
+    let b = d.path().join("b.ply");
+    write_ply(&a, &duplicated(&set[0][0], 3)).unwrap();
+    write_ply(&a1, &duplicated(&set[0][1], 3)).unwrap();
+    // The target: one face with a repeated vertex.
+    let t = &set[1][0];
+    write_ply(
+        &b,
+        &t.with_faces([t.faces(), &[[0, 0, 1]]].concat()).unwrap(),
+    )
+    .unwrap();
+    let sel = |cmd: &str| -> Vec<String> {
+        let mut v: Vec<String> = [cmd, "--source"].iter().map(|s| s.to_string()).collect();
+        v.push(a.display().to_string());
+        v.push("--deformed".into());
+        v.push(a1.display().to_string());
+        for s in [
+            "--candidates",
+            "8",
+            "--max-keypoints",
+            "3",
+            "--epsilon",
+            "0",
+        ] {
+            v.push(s.into());
+        }
+        v
+    };
+    // Default: one warning per file and kind, and a result.
+    let o = ok(&sel("keypoints"));
+    let err = stderr(&o);
+    let warn: Vec<&str> = err.lines().filter(|l| l.starts_with("warning: ")).collect();
+    // a, a1: duplicates, non-manifold edges and vertices.
+    assert_eq!(warn.len(), 6, "{err}");
+    assert!(
+        warn.iter()
+            .any(|l| l.contains("a.ply: 3 duplicate faces (first: ")),
+        "{err}"
+    );
+    assert!(
+        warn.iter().any(|l| l.contains("a1.ply: 3 duplicate faces")),
+        "{err}"
+    );
+    // --strict: refused, naming the file.
+    let mut args = sel("keypoints");
+    args.push("--strict".into());
+    let o = deformlab().args(&args).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(
+        err.contains("a.ply") && err.contains("3 duplicate faces") && err.contains("strict"),
+        "{err}"
+    );
+    // --repair: repaired and said so, no warning left; logged.
+    let out = d.path().join("kp");
+    let mut args = sel("keypoints");
+    args.extend([
+        "--repair".to_string(),
+        "--out".into(),
+        out.display().to_string(),
+    ]);
+    let o = ok(&args);
+    let err = stderr(&o);
+    assert!(!err.contains("warning:"), "{err}");
+    let rep: Vec<&str> = err
+        .lines()
+        .filter(|l| l.starts_with("repaired: "))
+        .collect();
+    assert_eq!(rep.len(), 2, "{err}");
+    assert!(rep[0].contains("a.ply: dropped 3 duplicate faces"), "{err}");
+    let log: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("log.json")).unwrap()).unwrap();
+    assert_eq!(log["settings"]["repair"], true);
+    assert_eq!(
+        log["mesh_checks"].as_array().map(|a| a.len()),
+        Some(2),
+        "{log}"
+    );
+
+    // transfer: the target's defect is warned, and with --repair repaired.
+    let mut args = sel("transfer");
+    args.extend([
+        "--target".to_string(),
+        b.display().to_string(),
+        "--same-connectivity".into(),
+        "--out".into(),
+        d.path().join("t1").display().to_string(),
+    ]);
+    let o = ok(&args);
+    let err = stderr(&o);
+    assert!(
+        err.lines().any(|l| l.starts_with("warning: ")
+            && l.contains("b.ply: 1 faces with a repeated vertex (first: ")),
+        "{err}"
+    );
+    let log: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("t1/log.json")).unwrap())
+            .unwrap();
+    assert_eq!(
+        log["mesh_checks"].as_array().map(|a| a.len()),
+        Some(3),
+        "{log}"
+    );
+    let mut args = sel("transfer");
+    args.extend([
+        "--target".to_string(),
+        b.display().to_string(),
+        "--same-connectivity".into(),
+        "--repair".into(),
+        "--strict".into(),
+        "--out".into(),
+        d.path().join("t2").display().to_string(),
+    ]);
+    let o = ok(&args);
+    let err = stderr(&o);
+    assert!(
+        err.lines().any(|l| l.starts_with("repaired: ")
+            && l.contains("b.ply: dropped 1 zero-area or repeated-vertex faces")),
+        "{err}"
+    );
+    assert!(!err.contains("warning:"), "{err}");
+}
+
+const RUN: &str = r#"
+name = "defects"
+seed = 1
+
+[dataset.faust]
+path = "faust"
+
+[cases]
+sources = [0]
+targets = [1]
+
+[[methods]]
+name = "identity"
+kind = "identity"
+"#;
+
+#[test]
+fn run_warns_records_refuses_and_repairs() {
+    let d = tmp();
+    let faust = d.path().join("faust");
+    std::fs::create_dir_all(&faust).unwrap();
+    for (s, poses) in synthetic().iter().enumerate() {
+        for (p, m) in poses.iter().enumerate() {
+            let path = faust.join(format!("tr_reg_{:03}.ply", 10 * s + p));
+            if (s, p) == (0, 0) {
+                write_ply(&path, &duplicated(m, 2)).unwrap();
+            } else {
+                write_ply(&path, m).unwrap();
+            }
+        }
+    }
+    let cfg = write(d.path(), "defects.toml", RUN);
+    let run = |out: &str, extra: &[&str]| {
+        let mut c = deformlab();
+        c.arg("run")
+            .arg(&cfg)
+            .arg("--out")
+            .arg(d.path().join(out))
+            .arg("--no-plots");
+        c.args(extra).output().unwrap()
+    };
+    // Default: warned once per kind, recorded, computed.
+    let o = run("plain", &[]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    let warn: Vec<&str> = err.lines().filter(|l| l.starts_with("warning: ")).collect();
+    assert!(
+        warn[0].starts_with("warning: tr_reg_000.ply: 2 duplicate faces (first: "),
+        "{err}"
+    );
+    assert!(warn[1].contains("tr_reg_000.ply: ") && warn[1].contains("non-manifold edges"));
+    assert!(warn[2].contains("tr_reg_000.ply: ") && warn[2].contains("non-manifold vertices"));
+    assert_eq!(warn.len(), 3, "{err}");
+    let dir = d.path().join("plain/defects");
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("manifest.json")).unwrap()).unwrap();
+    let notes = &m["invocations"][0]["mesh_defects"];
+    assert_eq!(notes[0]["file"], "tr_reg_000.ply", "{notes}");
+    assert_eq!(notes[0]["kind"], "duplicate_faces");
+    assert_eq!(notes[0]["count"], 2);
+    assert!(csv_rows(&dir.join("cases.csv"))
+        .iter()
+        .all(|r| r["status"] == "ok"));
+    // A resumed run serves no mesh: no warning again.
+    let o = run("plain", &[]);
+    assert!(!stderr(&o).contains("warning:"), "{}", stderr(&o));
+
+    // --strict: one error naming the file, before any case.
+    let o = run("strict", &["--strict"]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("tr_reg_000.ply: mesh: 2 duplicate faces"),
+        "{err}"
+    );
+    assert!(!d.path().join("strict/defects/cases").exists());
+
+    // --repair: repaired and said so; the config hash includes it.
+    let o = run("repair", &["--repair", "--strict"]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("warning:"), "{err}");
+    assert!(
+        err.lines()
+            .any(|l| l == "repaired: tr_reg_000.ply: dropped 2 duplicate faces"),
+        "{err}"
+    );
+    let m = std::fs::read_to_string(d.path().join("repair/defects/manifest.json")).unwrap();
+    assert!(
+        m.contains("tr_reg_000.ply: repaired: dropped 2 duplicate faces"),
+        "{m}"
+    );
+    let o = run("plain", &["--repair"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("dataset.repair"), "{}", stderr(&o));
+    // The same as the config key.
+    let keyed = write(
+        d.path(),
+        "keyed.toml",
+        RUN.replace(
+            "[dataset.faust]",
+            "[dataset]\nrepair = true\n\n[dataset.faust]",
+        ),
+    );
+    let o = deformlab()
+        .arg("run")
+        .arg(&keyed)
+        .arg("--out")
+        .arg(d.path().join("repair"))
+        .arg("--no-plots")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("defects: 0 computed"), "{out}");
 }

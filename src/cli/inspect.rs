@@ -1,4 +1,6 @@
-//! `deformlab inspect`: defect tables and a set summary.
+//! `deformlab inspect`: defect tables and a set summary. Exits with 1 when
+//! a file cannot be read, is empty (no faces) or cannot be used (indices
+//! out of range, NaN/inf coordinates), so scripts can rely on the status.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -42,6 +44,7 @@ fn expand(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
 pub fn run(paths: &[PathBuf], brief: bool) -> Result<ExitCode> {
     let files = expand(paths)?;
     let mut failed = 0usize;
+    let mut unusable = 0usize;
     let mut loaded: Vec<(PathBuf, Mesh)> = Vec::new();
     let mut clean = 0usize;
     for path in &files {
@@ -58,18 +61,41 @@ pub fn run(paths: &[PathBuf], brief: bool) -> Result<ExitCode> {
                 } else {
                     println!("== {}", path.display());
                     print!("{report}");
-                    println!();
                 }
-                if report.is_loadable() {
-                    if let Ok(m) = Mesh::try_from(raw) {
-                        loaded.push((path.clone(), m));
+                // Empty or unusable input: no command can compute on it.
+                let refusal = if report.n_faces == 0 {
+                    Some(format!(
+                        "EMPTY: no faces ({} vertices); no command can use it",
+                        report.n_vertices
+                    ))
+                } else if !report.is_loadable() {
+                    Some(format!(
+                        "UNUSABLE: {} faces with an index out of range, {} vertices with NaN/inf; \
+                         no command can use it",
+                        report.out_of_range_faces.count, report.non_finite_vertices.count
+                    ))
+                } else {
+                    None
+                };
+                match refusal {
+                    Some(why) => {
+                        unusable += 1;
+                        println!("{}: {why}", path.display());
                     }
+                    None => {
+                        if let Ok(m) = Mesh::try_from(raw) {
+                            loaded.push((path.clone(), m));
+                        }
+                    }
+                }
+                if !brief {
+                    println!();
                 }
             }
         }
     }
-    print_set_summary(&loaded, files.len(), failed, clean, brief);
-    Ok(if failed == 0 {
+    print_set_summary(&loaded, files.len(), failed, unusable, clean, brief);
+    Ok(if failed + unusable == 0 {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)
@@ -83,11 +109,13 @@ fn print_set_summary(
     loaded: &[(PathBuf, Mesh)],
     n_files: usize,
     failed: usize,
+    unusable: usize,
     clean: usize,
     brief: bool,
 ) {
     println!(
-        "== set summary: {n_files} file(s), {} loaded, {failed} unreadable; {clean} without any defect, {} with defects",
+        "== set summary: {n_files} file(s), {} loaded, {failed} unreadable, {unusable} empty or \
+         unusable; {clean} without any defect, {} with defects",
         loaded.len(),
         n_files - failed - clean
     );

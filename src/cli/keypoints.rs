@@ -12,6 +12,8 @@ use serde_json::{json, Value};
 
 use deformlab::experiment::config::{Epsilon, MaxKeypoints, NCandidates};
 use deformlab::mesh::io::{read_mesh, write_atomic};
+use deformlab::mesh::repair::{DefectPolicy, FaceRepair};
+use deformlab::mesh::Face;
 use deformlab::methods::KeypointSource;
 use deformlab::skin::bbw::{BbwOptions, WeightMode};
 use deformlab::transfer::keypoints::{
@@ -57,6 +59,16 @@ pub struct SelectArgs {
     /// unity in one problem, slower) [default: per-handle].
     #[arg(long, value_enum)]
     pub weights: Option<WeightMode>,
+    /// Refuse meshes with defects that change results (duplicate or
+    /// zero-area faces, non-manifold edges or vertices, inconsistent winding,
+    /// several components, unreferenced vertices) instead of warning.
+    #[arg(long)]
+    pub strict: bool,
+    /// Repair the meshes first: drop duplicate and zero-area faces, wind
+    /// each component consistently (A′ get A's repair when they share its
+    /// faces); each repair is printed and logged.
+    #[arg(long)]
+    pub repair: bool,
 }
 
 impl SelectArgs {
@@ -79,10 +91,28 @@ impl SelectArgs {
         }
     }
 
-    /// Loads A and the A′ (checking that A is one connected surface of a
-    /// size `f64` handles, and that every A′ has A's vertex count).
-    pub fn load(&self) -> Result<(Mesh, Vec<Mesh>)> {
-        let source = read_mesh(&self.source)?;
+    /// The defect policy of `--strict` / `--repair` (each left out: the
+    /// library's [`DefectPolicy::default`]).
+    pub fn policy(&self) -> DefectPolicy {
+        let d = DefectPolicy::default();
+        DefectPolicy {
+            strict: self.strict || d.strict,
+            repair: self.repair || d.repair,
+        }
+    }
+
+    /// Loads A and the A′, each under [`Self::policy`] (see
+    /// [`load_checked`]; the A′ with A's face list get A's repair; the
+    /// checks are appended to `log`), checking that A is one connected
+    /// surface of a size `f64` handles and that every A′ has A's vertex
+    /// count.
+    pub fn load(&self, log: &mut Vec<Value>) -> Result<(Mesh, Vec<Mesh>)> {
+        let policy = self.policy();
+        let raw = read_mesh(&self.source)?;
+        let plan = policy.repair.then(|| FaceRepair::plan(&raw));
+        let original = raw.faces().to_vec();
+        let shared = plan.as_ref().map(|p| (original.as_slice(), p));
+        let source = check_mesh(raw, &self.source, policy, shared, log)?;
         let parts = source.component_count();
         if parts > 1 {
             return Err(Error::parse(
@@ -100,7 +130,7 @@ impl SelectArgs {
             .deformed
             .iter()
             .map(|p| {
-                let m = read_mesh(p)?;
+                let m = check_mesh(read_mesh(p)?, p, policy, shared, log)?;
                 if m.n_vertices() != source.n_vertices() {
                     return Err(Error::parse(
                         p,
@@ -150,6 +180,8 @@ impl SelectArgs {
             "mode": opts.mode,
             "error_norm": format!("{:?}", opts.error_norm),
             "weights": format!("{:?}", opts.weights.mode),
+            "strict": self.policy().strict,
+            "repair": self.policy().repair,
         })
     }
 }
@@ -161,13 +193,51 @@ pub fn check_size(path: &Path, mesh: &Mesh) -> Result<()> {
         .map_err(|msg| Error::parse(path, "mesh", msg))
 }
 
+/// Reads a mesh and applies `policy` to it ([`check_mesh`]).
+pub fn load_checked(path: &Path, policy: DefectPolicy, log: &mut Vec<Value>) -> Result<Mesh> {
+    check_mesh(read_mesh(path)?, path, policy, None, log)
+}
+
+/// Applies `policy` to a mesh read from `path` ([`DefectPolicy::apply`];
+/// `shared`: another mesh's original faces and repair): prints one
+/// `repaired: PATH: …` line for a repair and one `warning: PATH: …` line per
+/// defect kind left (strict mode: an error naming the file), and appends
+/// them to `log` (nothing for a clean mesh).
+pub fn check_mesh(
+    mesh: Mesh,
+    path: &Path,
+    policy: DefectPolicy,
+    shared: Option<(&[Face], &FaceRepair)>,
+    log: &mut Vec<Value>,
+) -> Result<Mesh> {
+    let c = policy.apply(mesh, path, shared)?;
+    if let Some(r) = &c.repair {
+        eprintln!("repaired: {}: {r}", path.display());
+    }
+    for d in &c.defects {
+        eprintln!("warning: {}: {d}", path.display());
+    }
+    if c.repair.is_some() || !c.defects.is_empty() {
+        log.push(json!({
+            "file": path.display().to_string(),
+            "repaired": c.repair.as_ref().map(|r| r.to_string()),
+            "defects": c.defects.iter().map(|d| json!({
+                "kind": d.kind.name(), "count": d.count, "detail": d.to_string(),
+            })).collect::<Vec<_>>(),
+        }));
+    }
+    Ok(c.mesh)
+}
+
 /// `deformlab keypoints` arguments.
 #[derive(Args, Debug)]
 #[command(after_help = "Examples:\n  \
     deformlab keypoints --source faust/tr_reg_000.ply --deformed faust/tr_reg_003.ply faust/tr_reg_007.ply\n  \
     deformlab keypoints --source A.ply --deformed A1.ply A2.ply --candidates 50 --mode exact --out kp/\n\n\
     With --out DIR: DIR/keypoints.csv (source vertex, x y z on A) and DIR/log.json (settings,\n\
-    error trace, timings). Existing files are not overwritten unless --force is given.")]
+    error trace, timings). Existing files are not overwritten unless --force is given.\n\
+    Mesh defects that change results are printed as one warning per file and kind (and logged);\n\
+    --strict refuses such meshes, --repair fixes the standard ones and says what it did.")]
 pub struct KeypointsArgs {
     #[command(flatten)]
     pub select: SelectArgs,
@@ -194,7 +264,8 @@ pub fn run(a: KeypointsArgs) -> Result<ExitCode> {
         .map(|d| vec![d.join("keypoints.csv"), d.join("log.json")])
         .unwrap_or_default();
     refuse_overwrite(&outputs, a.force)?;
-    let (source, deformed) = a.select.load()?;
+    let mut checks = Vec::new();
+    let (source, deformed) = a.select.load(&mut checks)?;
     let opts = a.select.options();
     a.select.check_candidates(&source, &opts)?;
     let picked = KeypointSource::Automatic {
@@ -222,6 +293,7 @@ pub fn run(a: KeypointsArgs) -> Result<ExitCode> {
             "version": env!("CARGO_PKG_VERSION"),
             "settings": a.select.json(&opts),
             "selection": selection_json(&sel),
+            "mesh_checks": checks,
             "seconds_total": t_all.elapsed().as_secs_f64(),
         });
         write_json(&outputs[1], &log)?;

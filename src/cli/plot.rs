@@ -23,6 +23,8 @@ pub struct PlotArgs {
 pub fn run(a: PlotArgs) -> Result<ExitCode> {
     let mut warnings = 0;
     for d in &a.dirs {
+        // Not while a whole run writes the folder (beside shards: yes).
+        let _lock = deformlab::experiment::FolderLock::shared(d, "plot")?;
         let w = deformlab::experiment::make_plots(d)?;
         for x in &w {
             eprintln!("warning: {x}");

@@ -7,6 +7,7 @@ use std::time::Instant;
 use clap::Args;
 
 use deformlab::experiment::{run_configs, RunOptions, Shard};
+use deformlab::mesh::repair::DefectPolicy;
 use deformlab::Result;
 
 /// Arguments of `deformlab run`.
@@ -18,7 +19,12 @@ use deformlab::Result;
     Results: ROOT/<name>/{manifest.json, cases.csv, curves.csv, summary.csv, plots/, meshes/,\n\
     cases/ (one file per finished case × method)}. Re-running continues an interrupted run\n\
     (finished results are kept, never overwritten); a changed config is refused for an\n\
-    existing folder. Relative dataset paths in a config are relative to the config file.")]
+    existing folder. Relative dataset paths in a config are relative to the config file.\n\
+    One process writes an experiment folder at a time: a second run of a config waits for the\n\
+    first (it prints the holder's pid) or, with --no-wait, stops; shards of one config\n\
+    (--shard i/N, same N) can run side by side in one folder.\n\
+    Mesh defects that change results are printed as one warning per file and kind and recorded\n\
+    in manifest.json; --strict refuses such meshes, --repair fixes the standard ones.")]
 pub struct RunArgs {
     /// Experiment configs (TOML), run one after the other.
     #[arg(required = true)]
@@ -40,6 +46,23 @@ pub struct RunArgs {
     /// No progress output.
     #[arg(long)]
     pub quiet: bool,
+    /// If another process uses an experiment folder (a run of the same
+    /// config, or a shard of it), stop with an error naming it instead of
+    /// waiting for it.
+    #[arg(long)]
+    pub no_wait: bool,
+    /// Refuse meshes with defects that change results (duplicate or
+    /// zero-area faces, non-manifold edges or vertices, inconsistent winding,
+    /// several components, unreferenced vertices) instead of warning; the
+    /// same as `[dataset] strict = true` in every config.
+    #[arg(long)]
+    pub strict: bool,
+    /// Repair meshes at load: drop duplicate and zero-area faces, wind each
+    /// component consistently (each repair is printed and recorded); the
+    /// same as `[dataset] repair = true` in every config (part of the
+    /// config hash).
+    #[arg(long)]
+    pub repair: bool,
 }
 
 pub fn run(a: RunArgs) -> Result<ExitCode> {
@@ -54,6 +77,11 @@ pub fn run(a: RunArgs) -> Result<ExitCode> {
         max_new: std::env::var("DEFORMLAB_RUN_MAX_NEW")
             .ok()
             .and_then(|s| s.parse().ok()),
+        wait: !a.no_wait,
+        defects: DefectPolicy {
+            strict: a.strict,
+            repair: a.repair,
+        },
     };
     let summaries = run_configs(&a.configs, &opts)?;
     let mut failed = 0;

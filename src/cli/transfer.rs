@@ -28,7 +28,7 @@ use serde_json::json;
 
 use deformlab::data::correspondence::{check_pairs, pair_map, read_pairs, PairFormat};
 use deformlab::experiment::range::Int;
-use deformlab::mesh::io::{read_mesh, write_ply};
+use deformlab::mesh::io::write_ply;
 use deformlab::methods::{
     BdtOptions, KeypointSource, TargetCorrespondence, TargetPoints, TransferCase, TransferMethod,
 };
@@ -36,8 +36,8 @@ use deformlab::transfer::{TargetWeights, TransferFrame};
 use deformlab::{Error, Mesh, Result};
 
 use super::keypoints::{
-    check_size, create_dir, print_selection, read_keypoints_csv, refuse_overwrite, selection_json,
-    write_json, write_keypoints_csv, KeypointRow, SelectArgs,
+    check_size, create_dir, load_checked, print_selection, read_keypoints_csv, refuse_overwrite,
+    selection_json, write_json, write_keypoints_csv, KeypointRow, SelectArgs,
 };
 
 /// `deformlab transfer` arguments.
@@ -57,7 +57,8 @@ use super::keypoints::{
     error trace, timings). Existing files are not overwritten unless --force is given.\n\
     With --correspondence, candidate key points are drawn from the file's source vertices only.\n\
     A --keypoints file with a `target` column needs no other\n\
-    target option.")]
+    target option. Mesh defects that change results are printed as one warning per file and\n\
+    kind (and logged); --strict refuses such meshes, --repair fixes the standard ones.")]
 pub struct TransferArgs {
     #[command(flatten)]
     pub select: SelectArgs,
@@ -195,8 +196,9 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
     }
     refuse_overwrite(&all_out, a.force)?;
 
-    let (source, deformed) = a.select.load()?;
-    let target = read_mesh(&a.target)?;
+    let mut checks = Vec::new();
+    let (source, deformed) = a.select.load(&mut checks)?;
+    let target = load_checked(&a.target, a.select.policy(), &mut checks)?;
     check_size(&a.target, &target)?;
     let mut opts = a.select.options();
 
@@ -360,6 +362,7 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
             "total": t_all.elapsed().as_secs_f64(),
         },
         "outputs": mesh_out.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+        "mesh_checks": checks,
     });
     write_json(&log_out, &log)?;
     println!(

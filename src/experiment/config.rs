@@ -5,6 +5,10 @@
 //! description = "..."           # free text (not part of the config hash)
 //! seed = 0                      # random case draws; default seed of every method
 //!
+//! [dataset]
+//! strict = false                # refuse meshes with result-changing defects (not hashed)
+//! repair = false                # drop duplicate / zero-area faces, fix winding at load
+//!
 //! [dataset.synthetic]           # or [dataset.faust] path = "..."
 //! subjects = 3                  #    [dataset.tosca] path = "...", class = "cactus"
 //! poses = 4                     #    [dataset.manifest] path = ".../manifest.toml"
@@ -80,6 +84,7 @@ use super::range::{
     UnitInterval,
 };
 use crate::data::synthetic::{pose::N_POSES, MAX_RESOLUTION, MAX_SUBJECTS};
+use crate::mesh::repair::DefectPolicy;
 use crate::methods::completion::{
     CompareWith, DictionaryKind, FbtOptions, FeatureOptions, PipelineKind, RestartOptions,
     SolverKind,
@@ -157,6 +162,29 @@ pub struct DatasetSpec {
     pub tosca: Option<ToscaSpec>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub manifest: Option<FolderSpec>,
+    /// Refuse a mesh with a defect that changes results (duplicate or
+    /// zero-area faces, non-manifold edges or vertices, inconsistent
+    /// winding, several components, unreferenced vertices) instead of
+    /// warning ([`DefectPolicy::strict`]; `run --strict` sets it). Not part
+    /// of the config hash: it changes no result.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strict: Option<bool>,
+    /// Repair meshes at load: drop duplicate and zero-area faces, wind each
+    /// component consistently ([`DefectPolicy::repair`]; `run --repair`
+    /// sets it). Part of the config hash.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub repair: Option<bool>,
+}
+
+impl DatasetSpec {
+    /// The defect policy: the keys given, else [`DefectPolicy::default`].
+    pub fn policy(&self) -> DefectPolicy {
+        let d = DefectPolicy::default();
+        DefectPolicy {
+            strict: self.strict.unwrap_or(d.strict),
+            repair: self.repair.unwrap_or(d.repair),
+        }
+    }
 }
 
 /// Range of `dataset.synthetic.subjects` (and `deformlab gen --subjects`).
@@ -1709,9 +1737,16 @@ impl Config {
     /// The config without its output-only fields (`description`,
     /// `outputs`): what the stored results depend on.
     pub fn hashed_part(&self) -> Config {
+        let d = DefectPolicy::default();
         Config {
             description: None,
             outputs: OutputSpec::default(),
+            dataset: DatasetSpec {
+                strict: None,
+                // The default stated or left out: the same results.
+                repair: self.dataset.repair.filter(|&r| r != d.repair),
+                ..self.dataset.clone()
+            },
             ..self.clone()
         }
     }

@@ -29,6 +29,17 @@
 //! faces, and kept in [`Collection::repairs`] (the runner records them in
 //! `manifest.json`). Meshes with other triples (another connectivity) and
 //! subjects without a consistently wound pose are served unchanged.
+//!
+//! **Defects that change results.** Every served mesh is then checked under
+//! the config's [`DefectPolicy`] (`[dataset] strict`, `repair`): with the
+//! repair on, duplicate and zero-area faces are dropped and each component
+//! wound consistently ([`FaceRepair`]; planned once per subject on its first
+//! pose and shared by every pose with the same face list, so the poses keep
+//! one connectivity); each defect kind left is printed as one warning line
+//! naming the file (`warning: tr_reg_000.ply: 2 duplicate faces (first: 5
+//! 9)`), each repair as `repaired: FILE: …`, and both are kept in
+//! [`Collection::checks`] (the runner records them in `manifest.json`). In
+//! strict mode a defect left is an error naming the file.
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, OnceLock};
@@ -36,8 +47,9 @@ use std::sync::{Arc, Mutex, OnceLock};
 use super::config::LoadedConfig;
 use crate::data::folders::{FaustFolder, Label, Manifest, ToscaFolder};
 use crate::mesh::io::read_mesh;
+use crate::mesh::repair::{DefectPolicy, FaceRepair};
 use crate::mesh::set::{compare_faces, FaceMatch};
-use crate::mesh::validate::DefectReport;
+use crate::mesh::validate::{Defect, DefectReport};
 use crate::mesh::{Face, Mesh};
 use crate::{Error, Result};
 
@@ -55,8 +67,12 @@ pub struct PoseEntry {
     path: Option<PathBuf>,
     /// The mesh as generated (in-memory datasets).
     memory: Option<Arc<Mesh>>,
-    /// The mesh as served (read, winding repaired), once it was asked for.
+    /// The mesh as served (read, winding repaired, checked), once it was
+    /// asked for.
     mesh: Mutex<Option<Arc<Mesh>>>,
+    /// The mesh as read, kept between a look at it (the subject's face
+    /// list, its repair) and its serving, so that the file is read once.
+    read: Mutex<Option<Arc<Mesh>>>,
 }
 
 impl PoseEntry {
@@ -66,6 +82,7 @@ impl PoseEntry {
             path: None,
             memory: Some(Arc::new(mesh)),
             mesh: Mutex::new(None),
+            read: Mutex::new(None),
         }
     }
 
@@ -75,19 +92,44 @@ impl PoseEntry {
             path: Some(path),
             memory: None,
             mesh: Mutex::new(None),
+            read: Mutex::new(None),
         }
     }
 
     /// The mesh as stored (generated, or read from its file), no repair.
-    fn raw(&self) -> Result<Arc<Mesh>> {
+    /// `keep`: keep it for the next call (see [`PoseEntry::read`]); else a
+    /// kept copy is handed over and forgotten.
+    fn raw(&self, keep: bool) -> Result<Arc<Mesh>> {
         if let Some(m) = &self.memory {
             return Ok(m.clone());
+        }
+        let mut read = self
+            .read
+            .lock()
+            .map_err(|_| Error::invalid("mesh cache poisoned by a failed thread"))?;
+        if let Some(m) = read.as_ref() {
+            let m = m.clone();
+            if !keep {
+                *read = None;
+            }
+            return Ok(m);
         }
         let path = self
             .path
             .as_ref()
             .ok_or_else(|| Error::invalid(format!("pose {} has no mesh", self.id)))?;
-        Ok(Arc::new(read_mesh(path)?))
+        let m = Arc::new(read_mesh(path)?);
+        if keep {
+            *read = Some(m.clone());
+        }
+        Ok(m)
+    }
+
+    /// The path named in errors: the file, or `subject/pose` in memory.
+    fn error_path(&self, subject: &str) -> PathBuf {
+        self.path
+            .clone()
+            .unwrap_or_else(|| PathBuf::from(format!("{subject}/{}", self.id)))
     }
 
     fn lock(&self) -> Result<std::sync::MutexGuard<'_, Option<Arc<Mesh>>>> {
@@ -156,6 +198,13 @@ pub struct Subject {
     /// The subject's consistently wound face list (found on first use).
     faces: OnceLock<Option<SubjectFaces>>,
     repairs: Mutex<Vec<WindingRepair>>,
+    /// What to do with result-changing defects (the collection's).
+    policy: DefectPolicy,
+    /// With the repair on: the face list of the subject's first pose (as
+    /// wound by the step above) and its repair, shared by every pose with
+    /// that face list.
+    face_repair: OnceLock<Option<(Vec<Face>, FaceRepair)>>,
+    checks: Mutex<Vec<MeshCheck>>,
 }
 
 impl Subject {
@@ -166,6 +215,9 @@ impl Subject {
             extra,
             faces: OnceLock::new(),
             repairs: Mutex::new(Vec::new()),
+            policy: DefectPolicy::default(),
+            face_repair: OnceLock::new(),
+            checks: Mutex::new(Vec::new()),
         }
     }
 
@@ -186,16 +238,8 @@ impl Subject {
         self.faces
             .get_or_init(|| {
                 for e in self.poses.iter().chain(&self.extra) {
-                    let Ok(mut slot) = e.lock() else { continue };
-                    let m = match slot.as_ref() {
-                        Some(m) => m.clone(),
-                        None => match e.raw() {
-                            Ok(m) => m,
-                            Err(_) => continue,
-                        },
-                    };
+                    let Ok(m) = e.raw(true) else { continue };
                     if DefectReport::of_mesh(&m).inconsistent_edges.is_empty() {
-                        *slot = Some(m.clone());
                         return Some(SubjectFaces {
                             pose: e.id.clone(),
                             file: e.label(&self.id),
@@ -209,8 +253,52 @@ impl Subject {
             .as_ref()
     }
 
-    /// The mesh of pose `p`, with the subject's consistent face list when it
-    /// differs from it only by the winding of some faces.
+    /// Pose `e` read (kept for its serving when `keep`) and wound with the
+    /// subject's consistent face list when it differs from it only by the
+    /// winding of some faces (the repair, if any, is returned, not logged).
+    fn wound(&self, e: &PoseEntry, keep: bool) -> Result<(Arc<Mesh>, Option<WindingRepair>)> {
+        let m = e.raw(keep)?;
+        let Some(f) = self.consistent_faces() else {
+            return Ok((m, None));
+        };
+        let Some(flipped) = reversed_faces(&m, f) else {
+            return Ok((m, None));
+        };
+        let r = WindingRepair {
+            subject: self.id.clone(),
+            pose: e.id.clone(),
+            file: e.label(&self.id),
+            from_pose: f.pose.clone(),
+            from_file: f.file.clone(),
+            flipped,
+            faces: f.faces.len(),
+        };
+        Ok((Arc::new(m.with_faces(f.faces.clone())?), Some(r)))
+    }
+
+    /// With the repair on, the subject's shared face repair: planned on its
+    /// first pose that loads (listed order, then the extra poses).
+    fn face_repair(&self) -> Option<(&[Face], &FaceRepair)> {
+        if !self.policy.repair {
+            return None;
+        }
+        self.face_repair
+            .get_or_init(|| {
+                for e in self.poses.iter().chain(&self.extra) {
+                    if let Ok((m, _)) = self.wound(e, true) {
+                        return Some((m.faces().to_vec(), FaceRepair::plan(&m)));
+                    }
+                }
+                None
+            })
+            .as_ref()
+            .map(|(f, r)| (f.as_slice(), r))
+    }
+
+    /// The mesh of pose `p`: with the subject's consistent face list when it
+    /// differs from it only by the winding of some faces, then repaired and
+    /// checked under the collection's [`DefectPolicy`] (warnings printed and
+    /// logged; a defect in strict mode is an error naming the file).
     pub fn mesh(&self, p: &str) -> Result<Arc<Mesh>> {
         let e = self
             .pose(p)
@@ -218,35 +306,60 @@ impl Subject {
         if let Some(m) = e.lock()?.as_ref() {
             return Ok(m.clone());
         }
-        // Found before locking the entry: finding it may serve this entry.
-        let faces = self.consistent_faces();
+        // Found before locking the entry: finding them reads poses.
+        self.consistent_faces();
+        let shared = self.face_repair();
         let mut slot = e.lock()?;
         if let Some(m) = slot.as_ref() {
             return Ok(m.clone());
         }
-        let mut m = e.raw()?;
-        if let Some(f) = faces {
-            if let Some(flipped) = reversed_faces(&m, f) {
-                m = Arc::new(m.with_faces(f.faces.clone())?);
-                let r = WindingRepair {
+        let (m, winding) = self.wound(e, false)?;
+        let file = e.label(&self.id);
+        let checked =
+            self.policy
+                .apply(Arc::unwrap_or_clone(m), &e.error_path(&self.id), shared)?;
+        if let Some(r) = winding {
+            eprintln!("warning: {r}");
+            self.repairs
+                .lock()
+                .map_err(|_| Error::invalid("repair log poisoned by a failed thread"))?
+                .push(r);
+        }
+        if let Some(r) = &checked.repair {
+            eprintln!("repaired: {file}: {r}");
+        }
+        for d in &checked.defects {
+            eprintln!("warning: {file}: {d}");
+        }
+        if checked.repair.is_some() || !checked.defects.is_empty() {
+            self.checks
+                .lock()
+                .map_err(|_| Error::invalid("defect log poisoned by a failed thread"))?
+                .push(MeshCheck {
                     subject: self.id.clone(),
                     pose: e.id.clone(),
-                    file: e.label(&self.id),
-                    from_pose: f.pose.clone(),
-                    from_file: f.file.clone(),
-                    flipped,
-                    faces: f.faces.len(),
-                };
-                eprintln!("warning: {r}");
-                self.repairs
-                    .lock()
-                    .map_err(|_| Error::invalid("repair log poisoned by a failed thread"))?
-                    .push(r);
-            }
+                    file,
+                    repair: checked.repair.as_ref().map(|r| r.to_string()),
+                    defects: checked.defects.clone(),
+                });
         }
+        let m = Arc::new(checked.mesh);
         *slot = Some(m.clone());
         Ok(m)
     }
+}
+
+/// The result-changing defects left in a served mesh and the repair made
+/// (see [`DefectPolicy`]); only meshes with one or the other are logged.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct MeshCheck {
+    pub subject: String,
+    pub pose: String,
+    /// File name (`subject/pose` in memory).
+    pub file: String,
+    /// What the repair did (`None`: repair off or nothing to repair).
+    pub repair: Option<String>,
+    pub defects: Vec<Defect>,
 }
 
 /// The number of faces of `m` that are faces of `f` in the opposite winding,
@@ -283,8 +396,21 @@ pub struct Collection {
 }
 
 impl Collection {
-    /// Opens the dataset of a config (generates the synthetic set).
+    /// Opens the dataset of a config (generates the synthetic set), with
+    /// the config's [`DefectPolicy`] (`[dataset] strict`, `repair`).
     pub fn open(cfg: &LoadedConfig) -> Result<Self> {
+        Ok(Self::open_unchecked(cfg)?.with_policy(cfg.config.dataset.policy()))
+    }
+
+    /// Sets the policy applied to every mesh served from now on.
+    pub fn with_policy(mut self, policy: DefectPolicy) -> Self {
+        for s in &mut self.subjects {
+            s.policy = policy;
+        }
+        self
+    }
+
+    fn open_unchecked(cfg: &LoadedConfig) -> Result<Self> {
         let d = &cfg.config.dataset;
         let base = &cfg.base_dir;
         if let Some(f) = &d.faust {
@@ -491,6 +617,19 @@ impl Collection {
         self.subject(s)
             .and_then(|x| x.pose(p).map(|e| e.label(s)))
             .unwrap_or_else(|| format!("{s}/{p}"))
+    }
+
+    /// The meshes served so far with a result-changing defect or a repair
+    /// ([`MeshCheck`]), subject by subject, in pose order.
+    pub fn checks(&self) -> Vec<MeshCheck> {
+        let mut out = Vec::new();
+        for s in &self.subjects {
+            let mut r = s.checks.lock().map(|r| r.clone()).unwrap_or_default();
+            let order = |p: &str| s.poses.iter().chain(&s.extra).position(|e| e.id == p);
+            r.sort_by_key(|x| order(&x.pose));
+            out.extend(r);
+        }
+        out
     }
 
     /// The winding repairs made so far, subject by subject, in pose order.

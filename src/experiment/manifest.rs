@@ -47,10 +47,48 @@ pub struct Invocation {
     pub computed: usize,
     /// Results found already stored (resumed).
     pub reused: usize,
-    /// Meshes whose winding the dataset repaired at load during this
-    /// invocation ([`super::dataset::WindingRepair`], one line each).
+    /// Meshes the dataset repaired at load during this invocation, one line
+    /// each: windings adopted from the subject
+    /// ([`super::dataset::WindingRepair`]) and, with `[dataset] repair`,
+    /// dropped faces and reversed windings (`FILE: repaired: …`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub repairs: Vec<String>,
+    /// Result-changing defects of the meshes served during this invocation
+    /// (after any repair), one entry per file and kind.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub mesh_defects: Vec<DefectNote>,
+}
+
+/// One kind of result-changing defect in one mesh file, as recorded in
+/// manifest.json (`kind`: [`crate::mesh::validate::DefectKind::name`]).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DefectNote {
+    pub subject: String,
+    pub pose: String,
+    pub file: String,
+    pub kind: String,
+    pub count: usize,
+    /// The warning printed, e.g. `2 duplicate faces (first: 5 9)`.
+    pub detail: String,
+}
+
+impl DefectNote {
+    /// One note per defect kind of each check.
+    pub fn of(checks: &[super::dataset::MeshCheck]) -> Vec<DefectNote> {
+        checks
+            .iter()
+            .flat_map(|c| {
+                c.defects.iter().map(|d| DefectNote {
+                    subject: c.subject.clone(),
+                    pose: c.pose.clone(),
+                    file: c.file.clone(),
+                    kind: d.kind.name().to_string(),
+                    count: d.count,
+                    detail: d.to_string(),
+                })
+            })
+            .collect()
+    }
 }
 
 /// `manifest.json`.

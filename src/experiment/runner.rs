@@ -9,6 +9,11 @@
 //! (atomically); tables are rebuilt from the store at the end, in case
 //! order, so results do not depend on K or on interruptions. A failing
 //! method on a case is a result too (status `failed: …`).
+//!
+//! One writer per folder ([`super::lock`]): a run holds the experiment
+//! folder exclusively (shards: shared, and their own shard exclusively), so
+//! a second run of the config waits for the first (or, with `--no-wait`,
+//! stops with an error naming it) and then finds every result stored.
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -21,10 +26,12 @@ use rayon::prelude::*;
 use super::cases::{generate_cases, Case};
 use super::config::{load_config, LoadedConfig, NamedMethod};
 use super::dataset::Collection;
-use super::manifest::{read_manifest, write_manifest, Invocation, Manifest, Shard};
+use super::lock::FolderLock;
+use super::manifest::{read_manifest, write_manifest, DefectNote, Invocation, Manifest, Shard};
 use super::record::run_method;
 use super::store::{secs, CaseResult, RenderOut, Store, StoredConfig};
-use crate::mesh::io::write_ply;
+use crate::mesh::io::{temp, write_ply};
+use crate::mesh::repair::DefectPolicy;
 use crate::{Error, Result};
 
 /// Options of [`run_configs`].
@@ -42,6 +49,13 @@ pub struct RunOptions {
     pub progress: bool,
     /// Stop after this many newly finished case × method results (tests).
     pub max_new: Option<usize>,
+    /// Wait for another process that uses an experiment folder (after a
+    /// message naming it); `false`: an error naming it (`--no-wait`).
+    pub wait: bool,
+    /// Command-line `--strict` / `--repair`: each one that is on overrides
+    /// the configs' `[dataset] strict` / `repair` (and, for `repair`, the
+    /// config hash, as the key would).
+    pub defects: DefectPolicy,
 }
 
 /// What a run of one config did.
@@ -65,10 +79,18 @@ fn unix_now() -> u64 {
 
 /// Runs every config in turn (see the module documentation).
 pub fn run_configs(configs: &[PathBuf], opts: &RunOptions) -> Result<Vec<RunSummary>> {
-    let loaded = configs
+    let mut loaded = configs
         .iter()
         .map(|c| load_config(c))
         .collect::<Result<Vec<_>>>()?;
+    for l in &mut loaded {
+        if opts.defects.strict {
+            l.config.dataset.strict = Some(true);
+        }
+        if opts.defects.repair {
+            l.config.dataset.repair = Some(true);
+        }
+    }
     let mut names = std::collections::HashSet::new();
     for l in &loaded {
         if !names.insert(l.config.name.clone()) {
@@ -115,6 +137,36 @@ fn save_render_base(col: &Collection, case: &Case, dir: &Path, poses: usize) -> 
                 s.push_str(&format!("{i},{l}\n"));
             }
             super::store::write_file(&path, s.as_bytes(), false)?;
+        }
+    }
+    Ok(())
+}
+
+/// Serves every mesh that the cases with work left use, before any case
+/// runs, so that the defect warnings come first and, in strict mode, a
+/// refused mesh (or one that cannot be read) stops the run with one error
+/// naming the file instead of failing case after case. Without strict mode
+/// a mesh that cannot be read is left to the cases that use it (each fails
+/// with the error, as a result).
+fn serve_case_meshes(col: &Collection, cases: &[&Case], strict: bool) -> Result<()> {
+    let mut seen = std::collections::BTreeSet::new();
+    for c in cases {
+        let mut want = vec![(&c.source, &c.reference), (&c.target, &c.reference)];
+        for (p, &has) in c.poses.iter().zip(&c.truth) {
+            want.push((&c.source, p));
+            if has {
+                want.push((&c.target, p));
+            }
+        }
+        for (s, p) in want {
+            if !seen.insert((s.clone(), p.clone())) {
+                continue;
+            }
+            if let Err(e) = col.mesh(s, p) {
+                if strict {
+                    return Err(e);
+                }
+            }
         }
     }
     Ok(())
@@ -182,8 +234,8 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
     let name = &l.config.name;
     let dir = opts.out.join(name);
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let lock = FolderLock::for_run(&dir, opts.shard, opts.wait)?;
     let store = Store::new(&dir);
-    super::store::remove_temporaries(&dir)?;
     let hash = l.config.hash();
     let stored = StoredConfig {
         hash: hash.clone(),
@@ -200,12 +252,6 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
         .collect();
     // Values the data make impossible: one error before any case runs.
     super::feasible::check_against_data(l, &col, &mine)?;
-    let render_cases = l.config.outputs.render_cases();
-    let render_poses = l.config.outputs.render_poses();
-    for c in mine.iter().filter(|c| c.index < render_cases) {
-        save_render_base(&col, c, &store.mesh_dir(&c.id), render_poses)?;
-    }
-
     let mut work: Vec<(&Case, &NamedMethod)> = Vec::new();
     let mut reused = 0;
     for c in &mine {
@@ -219,6 +265,15 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
     }
     if let Some(k) = opts.max_new {
         work.truncate(k);
+    }
+    let mut pending: Vec<&Case> = work.iter().map(|(c, _)| *c).collect();
+    pending.dedup_by_key(|c| c.index);
+    serve_case_meshes(&col, &pending, l.config.dataset.policy().strict)?;
+
+    let render_cases = l.config.outputs.render_cases();
+    let render_poses = l.config.outputs.render_poses();
+    for c in mine.iter().filter(|c| c.index < render_cases) {
+        save_render_base(&col, c, &store.mesh_dir(&c.id), render_poses)?;
     }
     if opts.progress {
         eprintln!(
@@ -234,6 +289,7 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
     }
     let progress = Progress::new(work.len(), name, opts.progress);
     let done = AtomicUsize::new(0);
+    let dropped = AtomicUsize::new(0);
     let first_error: Mutex<Option<Error>> = Mutex::new(None);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(crate::solve::cap_threads(opts.threads))
@@ -294,11 +350,19 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
                 }
             };
             r.set("status", status.clone());
-            if let Err(e) = store.put(&r) {
-                if let Ok(mut slot) = first_error.lock() {
-                    slot.get_or_insert(e);
+            match store.put(&r) {
+                Ok(true) => {}
+                // Stored meanwhile by a run of an overlapping shard: its
+                // result stays, this one is dropped.
+                Ok(false) => {
+                    dropped.fetch_add(1, Ordering::Relaxed);
                 }
-                return;
+                Err(e) => {
+                    if let Ok(mut slot) = first_error.lock() {
+                        slot.get_or_insert(e);
+                    }
+                    return;
+                }
             }
             let k = done.fetch_add(1, Ordering::Relaxed) + 1;
             progress.tick(
@@ -318,8 +382,13 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
     if let Some(e) = first_error.into_inner().ok().flatten() {
         return Err(e);
     }
-    let computed = done.load(Ordering::Relaxed);
+    let computed = done.load(Ordering::Relaxed) - dropped.load(Ordering::Relaxed);
+    let reused = reused + dropped.load(Ordering::Relaxed);
 
+    // One process at a time rebuilds the tables, the manifest and the
+    // plots from everything stored (shards of one folder finish in any
+    // order; the last leaves complete tables).
+    let _tables = lock.tables()?;
     let order: Vec<String> = l.methods.iter().map(|m| m.name.clone()).collect();
     let results = store.all(&order)?;
     store.write_tables(&results)?;
@@ -351,7 +420,17 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
         git_revision: git.clone(),
         computed,
         reused,
-        repairs: col.repairs().iter().map(|r| r.to_string()).collect(),
+        repairs: col
+            .repairs()
+            .iter()
+            .map(|r| r.to_string())
+            .chain(
+                col.checks()
+                    .iter()
+                    .filter_map(|c| Some(format!("{}: repaired: {}", c.file, c.repair.as_ref()?))),
+            )
+            .collect(),
+        mesh_defects: DefectNote::of(&col.checks()),
     });
     let shards = match opts.shard {
         None => None,
@@ -441,7 +520,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path, plots: bool) -> Result<RunSummary> 
             )));
         }
     }
-    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    let _lock = FolderLock::exclusive(out, "merge")?;
     let store = Store::new(out);
     let stored = Store::new(&inputs[0]).read_config()?;
     store.bind(&stored)?;
@@ -523,7 +602,7 @@ fn copy_tree(from: &Path, to: &Path) -> Result<()> {
         let q = to.join(e.file_name());
         if p.is_dir() {
             copy_tree(&p, &q)?;
-        } else if !q.exists() && !e.file_name().to_string_lossy().ends_with(".tmp") {
+        } else if !q.exists() && !temp::is_temporary(&e.file_name().to_string_lossy()) {
             let bytes = std::fs::read(&p).map_err(|e| Error::io(&p, e))?;
             super::store::write_file(&q, &bytes, false)?;
         }

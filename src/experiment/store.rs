@@ -15,21 +15,20 @@
 //! **Atomicity.** A result file is written to a unique temporary name in the
 //! same folder and then hard-linked to its final name, which fails if the
 //! name exists: a finished result is never overwritten, and a process
-//! killed at any moment leaves either no file or a complete one (temporary
-//! files are removed on the next start). Tables are rebuilt from the result
+//! killed at any moment leaves either no file or a complete one (its
+//! temporary files, dot-prefixed and named by the process, are removed by
+//! the next run that holds the folder alone; [`remove_stale_temporaries`]). Tables are rebuilt from the result
 //! files only, so a resumed, a sharded+merged and an uninterrupted run give
 //! the same `cases.csv` (timing columns aside).
 //!
 //! **Numbers** are stored as text at the moment they are computed (10
 //! significant digits, shortest form), so rebuilding a table is pure text.
 
-use std::collections::BTreeMap;
-use std::io::Write;
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
-
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 
+use crate::mesh::io::temp;
 use crate::{Error, Result};
 
 /// Columns of `cases.csv`, in order. Columns whose name starts with
@@ -221,18 +220,6 @@ impl CaseResult {
     }
 }
 
-static TMP_COUNTER: AtomicU64 = AtomicU64::new(0);
-
-/// A temporary name next to `path` unique to this process and call.
-fn tmp_name(path: &Path) -> PathBuf {
-    let n = TMP_COUNTER.fetch_add(1, Ordering::Relaxed);
-    let name = path
-        .file_name()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    path.with_file_name(format!(".{name}.{}.{n}.tmp", std::process::id()))
-}
-
 /// Where a render case's meshes go (`None`: not a render case).
 pub struct RenderOut<'a> {
     pub dir: &'a Path,
@@ -252,21 +239,18 @@ pub fn save_mesh(path: &Path, mesh: &crate::mesh::Mesh) -> Result<()> {
     crate::mesh::io::write_ply(path, mesh)
 }
 
-/// Writes `bytes` to a temporary file, syncs it and moves it to `path`.
+/// Writes `bytes` to a temporary file of this process
+/// ([`crate::mesh::io::temp`]), syncs it and moves it to `path`.
 /// `clobber = false`: fails with `Ok(false)` (file left alone) if `path`
-/// exists. Returns whether the file was written.
+/// exists. Returns whether the file was written. The temporary is removed
+/// in every case.
 pub fn write_file(path: &Path, bytes: &[u8], clobber: bool) -> Result<bool> {
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     }
-    let tmp = tmp_name(path);
-    {
-        let mut f = std::fs::File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
-        f.write_all(bytes).map_err(|e| Error::io(&tmp, e))?;
-        f.sync_all().map_err(|e| Error::io(&tmp, e))?;
-    }
+    let tmp = temp::write_temp(path, bytes, true)?;
     if clobber {
-        std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))?;
+        temp::commit(&tmp, path)?;
         return Ok(true);
     }
     let linked = std::fs::hard_link(&tmp, path);
@@ -278,8 +262,12 @@ pub fn write_file(path: &Path, bytes: &[u8], clobber: bool) -> Result<bool> {
     }
 }
 
-/// Removes leftover temporary files (`.*.tmp`) under `dir`, recursively.
-pub fn remove_temporaries(dir: &Path) -> Result<usize> {
+/// Removes the temporaries under `dir` (recursively) that other processes
+/// left behind ([`temp::is_temporary`]; this process's own are kept).
+/// Call it only while no other process writes under `dir` (the folder's
+/// exclusive lock, [`super::lock`]): a temporary of a live writer would be
+/// pulled from under it.
+pub fn remove_stale_temporaries(dir: &Path) -> Result<usize> {
     let mut n = 0;
     let Ok(rd) = std::fs::read_dir(dir) else {
         return Ok(0);
@@ -288,11 +276,15 @@ pub fn remove_temporaries(dir: &Path) -> Result<usize> {
         let e = e.map_err(|e| Error::io(dir, e))?;
         let p = e.path();
         let name = e.file_name().to_string_lossy().into_owned();
-        if p.is_dir() {
-            n += remove_temporaries(&p)?;
-        } else if name.starts_with('.') && name.ends_with(".tmp") {
-            std::fs::remove_file(&p).map_err(|e| Error::io(&p, e))?;
-            n += 1;
+        let is_dir = e.file_type().map(|t| t.is_dir()).unwrap_or(false);
+        if is_dir {
+            n += remove_stale_temporaries(&p)?;
+        } else if temp::is_temporary(&name) && !temp::is_own_temporary(&name) {
+            match std::fs::remove_file(&p) {
+                Ok(()) => n += 1,
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                Err(e) => return Err(Error::io(&p, e)),
+            }
         }
     }
     Ok(n)
@@ -693,7 +685,28 @@ mod tests {
         assert!(write_file(&p, b"three", true).unwrap());
         assert_eq!(std::fs::read(&p).unwrap(), b"three");
         // No temporaries left behind.
-        assert_eq!(remove_temporaries(d.path()).unwrap(), 0);
+        assert_eq!(remove_stale_temporaries(d.path()).unwrap(), 0);
+        assert_eq!(std::fs::read_dir(d.path().join("a")).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn only_other_processes_temporaries_are_removed() {
+        let d = tempfile::tempdir().unwrap();
+        let sub = d.path().join("cases/c0");
+        std::fs::create_dir_all(&sub).unwrap();
+        let own = temp::temp_path(&sub.join("m.json"), None);
+        for p in [
+            own.clone(),
+            sub.join(".m.json.4242-0badcafe.0.tmp"),
+            d.path().join("meshes_result_6.ply.tmp"),
+            d.path().join(".fig.png.1-ab.0.tmp.png"),
+            sub.join("m.json"),
+            d.path().join(".lock"),
+        ] {
+            std::fs::write(&p, b"x").unwrap();
+        }
+        assert_eq!(remove_stale_temporaries(d.path()).unwrap(), 3);
+        assert!(own.exists() && sub.join("m.json").exists() && d.path().join(".lock").exists());
     }
 
     #[test]

@@ -8,6 +8,7 @@
 pub mod compact;
 pub mod io;
 pub mod primitives;
+pub mod repair;
 pub mod set;
 pub mod validate;
 

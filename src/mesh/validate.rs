@@ -157,8 +157,10 @@ impl DefectReport {
 
     /// Like [`is_clean`](Self::is_clean) but open surfaces (boundary edges)
     /// are accepted.
+    /// An empty mesh (no faces) is not clean.
     pub fn is_clean_ignoring_boundary(&self) -> bool {
-        self.out_of_range_faces.is_empty()
+        self.n_faces > 0
+            && self.out_of_range_faces.is_empty()
             && self.non_finite_vertices.is_empty()
             && self.repeated_index_faces.is_empty()
             && self.zero_area_faces.is_empty()
@@ -206,7 +208,13 @@ impl DefectReport {
             .filter(|(n, _)| *n > 0)
             .map(|(n, what)| format!("{n} {what}"))
             .collect();
-        if defects.is_empty() && self.is_clean() {
+        if self.n_faces == 0 {
+            s.push_str(": empty (no faces)");
+            if !defects.is_empty() {
+                s.push_str(", ");
+                s.push_str(&defects.join(", "));
+            }
+        } else if defects.is_empty() && self.is_clean() {
             s.push_str(": clean");
         } else if !defects.is_empty() {
             s.push_str(": ");
@@ -221,6 +229,18 @@ impl DefectReport {
     pub fn genus(&self) -> Option<i64> {
         self.components.iter().map(|c| c.genus).sum()
     }
+}
+
+/// Whether a face (indices in range) is zero-area: `area ≤
+/// ZERO_AREA_RELATIVE · L²` with `L` its longest edge, or `L = 0`.
+pub fn is_zero_area(vertices: &[Point], f: &Face) -> bool {
+    let (pa, pb, pc) = (vertices[f[0]], vertices[f[1]], vertices[f[2]]);
+    let area = 0.5 * (pb - pa).cross(&(pc - pa)).norm();
+    let l2 = (pb - pa)
+        .norm_squared()
+        .max((pc - pb).norm_squared())
+        .max((pa - pc).norm_squared());
+    l2 == 0.0 || area <= ZERO_AREA_RELATIVE * l2
 }
 
 /// Union–find with path halving.
@@ -280,16 +300,8 @@ fn analyse(vertices: &[Point], faces: &[Face]) -> DefectReport {
             continue;
         }
         topo.push(fi);
-        if finite[a] && finite[b] && finite[c] {
-            let (pa, pb, pc) = (vertices[a], vertices[b], vertices[c]);
-            let area = 0.5 * (pb - pa).cross(&(pc - pa)).norm();
-            let l2 = (pb - pa)
-                .norm_squared()
-                .max((pc - pb).norm_squared())
-                .max((pa - pc).norm_squared());
-            if l2 == 0.0 || area <= ZERO_AREA_RELATIVE * l2 {
-                zero_area_faces.push(fi);
-            }
+        if finite[a] && finite[b] && finite[c] && is_zero_area(vertices, f) {
+            zero_area_faces.push(fi);
         }
     }
     let mut unreferenced_vertices = Offenders::default();
@@ -607,7 +619,13 @@ impl fmt::Display for DefectReport {
             if self.components.len() == 1 { "" } else { "s" },
             self.euler_characteristic,
             self.genus().map_or("—".to_string(), |g| g.to_string()),
-            if self.is_clean() { "clean" } else { "has defects" }
+            if self.n_faces == 0 {
+                "empty (no faces)"
+            } else if self.is_clean() {
+                "clean"
+            } else {
+                "has defects"
+            }
         )?;
         let idx = |i: &usize| i.to_string();
         let edge = |e: &[usize; 2]| format!("{}-{}", e[0], e[1]);
@@ -708,5 +726,172 @@ impl fmt::Display for DefectReport {
             )?;
         }
         Ok(())
+    }
+}
+
+/// A defect that changes what the methods compute on a mesh, so `run`,
+/// `transfer` and `keypoints` warn about it (or refuse the mesh in strict
+/// mode). Boundary edges are not among them: open surfaces are valid input.
+/// Out-of-range indices and non-finite coordinates are not either: such a
+/// file is refused when it is read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum DefectKind {
+    DuplicateFaces,
+    ZeroAreaFaces,
+    RepeatedIndexFaces,
+    NonManifoldEdges,
+    NonManifoldVertices,
+    /// Edges used twice in one direction, or a component that cannot be
+    /// wound consistently.
+    InconsistentOrientation,
+    SeveralComponents,
+    UnreferencedVertices,
+}
+
+impl DefectKind {
+    /// Every kind, in report order.
+    pub const ALL: [DefectKind; 8] = [
+        DefectKind::DuplicateFaces,
+        DefectKind::ZeroAreaFaces,
+        DefectKind::RepeatedIndexFaces,
+        DefectKind::NonManifoldEdges,
+        DefectKind::NonManifoldVertices,
+        DefectKind::InconsistentOrientation,
+        DefectKind::SeveralComponents,
+        DefectKind::UnreferencedVertices,
+    ];
+
+    /// Stable snake-case name (manifests, logs).
+    pub fn name(self) -> &'static str {
+        match self {
+            DefectKind::DuplicateFaces => "duplicate_faces",
+            DefectKind::ZeroAreaFaces => "zero_area_faces",
+            DefectKind::RepeatedIndexFaces => "repeated_index_faces",
+            DefectKind::NonManifoldEdges => "non_manifold_edges",
+            DefectKind::NonManifoldVertices => "non_manifold_vertices",
+            DefectKind::InconsistentOrientation => "inconsistent_orientation",
+            DefectKind::SeveralComponents => "several_components",
+            DefectKind::UnreferencedVertices => "unreferenced_vertices",
+        }
+    }
+}
+
+/// One kind of result-changing defect found in a mesh: how many offenders
+/// and the first few, e.g. `14 duplicate faces (first: 43800 43801 …)`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Defect {
+    pub kind: DefectKind,
+    pub count: usize,
+    /// The counted thing and the first offenders, ready to print
+    /// (`duplicate faces (first: 3 17)`).
+    pub detail: String,
+}
+
+impl fmt::Display for Defect {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} {}", self.count, self.detail)
+    }
+}
+
+impl DefectReport {
+    /// The defects that change results ([`DefectKind`]), one entry per
+    /// kind present, in [`DefectKind::ALL`] order. Empty for a clean mesh
+    /// (an open but otherwise clean surface included).
+    pub fn result_defects(&self) -> Vec<Defect> {
+        let idx = |i: &usize| i.to_string();
+        let edge = |e: &[usize; 2]| format!("{}-{}", e[0], e[1]);
+        let listed = |what: &str, list: String| format!("{what} (first: {list})");
+        let mut out = Vec::new();
+        for kind in DefectKind::ALL {
+            let (count, detail) = match kind {
+                DefectKind::DuplicateFaces => (
+                    self.duplicate_faces.count,
+                    listed("duplicate faces", fmt_list(&self.duplicate_faces, idx)),
+                ),
+                DefectKind::ZeroAreaFaces => (
+                    self.zero_area_faces.count,
+                    listed("zero-area faces", fmt_list(&self.zero_area_faces, idx)),
+                ),
+                DefectKind::RepeatedIndexFaces => (
+                    self.repeated_index_faces.count,
+                    listed(
+                        "faces with a repeated vertex",
+                        fmt_list(&self.repeated_index_faces, idx),
+                    ),
+                ),
+                DefectKind::NonManifoldEdges => (
+                    self.non_manifold_edges.count,
+                    listed(
+                        "non-manifold edges",
+                        fmt_list(&self.non_manifold_edges, edge),
+                    ),
+                ),
+                DefectKind::NonManifoldVertices => (
+                    self.non_manifold_vertices.count,
+                    listed(
+                        "non-manifold vertices",
+                        fmt_list(&self.non_manifold_vertices, idx),
+                    ),
+                ),
+                DefectKind::InconsistentOrientation => {
+                    let non_orientable = self
+                        .components
+                        .iter()
+                        .filter(|c| c.orientable == Some(false))
+                        .count();
+                    let to_flip: usize =
+                        self.components.iter().filter_map(|c| c.faces_to_flip).sum();
+                    if self.inconsistent_edges.is_empty() && non_orientable == 0 {
+                        (0, String::new())
+                    } else {
+                        let mut what = "inconsistent-winding edges".to_string();
+                        if to_flip > 0 {
+                            what.push_str(&format!(", {to_flip} faces wound against the rest"));
+                        }
+                        if non_orientable > 0 {
+                            what.push_str(&format!(
+                                ", {non_orientable} non-orientable component(s)"
+                            ));
+                        }
+                        (
+                            self.inconsistent_edges.count,
+                            listed(&what, fmt_list(&self.inconsistent_edges, edge)),
+                        )
+                    }
+                }
+                DefectKind::SeveralComponents => {
+                    let n = self.components.len();
+                    if n < 2 {
+                        (0, String::new())
+                    } else {
+                        let mut sizes: Vec<String> = self
+                            .components
+                            .iter()
+                            .take(LIST_CAP)
+                            .map(|c| c.n_faces.to_string())
+                            .collect();
+                        if n > LIST_CAP {
+                            sizes.push("…".into());
+                        }
+                        (n, format!("components (faces: {})", sizes.join(" ")))
+                    }
+                }
+                DefectKind::UnreferencedVertices => (
+                    self.unreferenced_vertices.count,
+                    listed(
+                        "unreferenced vertices",
+                        fmt_list(&self.unreferenced_vertices, idx),
+                    ),
+                ),
+            };
+            if count > 0 {
+                out.push(Defect {
+                    kind,
+                    count,
+                    detail,
+                });
+            }
+        }
+        out
     }
 }

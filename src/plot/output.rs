@@ -3,10 +3,10 @@
 
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use plotters::prelude::*;
 
+use crate::mesh::io::temp::{self, commit};
 use crate::{Error, Result};
 
 /// An 8-bit sRGB image, rows top to bottom, 3 bytes per pixel.
@@ -110,38 +110,25 @@ pub fn with_suffix(stem: &Path, ext: &str) -> Result<PathBuf> {
     Ok(PathBuf::from(s))
 }
 
-/// A fresh temporary path next to `path`, ending in `.tmp.<ext>` (the PNG
-/// encoder picks the format from the extension). Creates the directory.
+/// A fresh temporary path of this process next to `path`, ending in
+/// `.tmp.<ext>` (the PNG encoder picks the format from the extension;
+/// [`crate::mesh::io::temp`]). Creates the directory.
 fn temp_path(path: &Path, ext: &str) -> Result<PathBuf> {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    Ok(dir.join(format!(".{name}.{}.{n}.tmp.{ext}", std::process::id())))
-}
-
-/// Moves `tmp` onto `path`, removing `tmp` if that fails.
-fn commit(tmp: &Path, path: &Path) -> Result<()> {
-    std::fs::rename(tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(tmp);
-        Error::io(path, e)
-    })
+    let name = path.file_name().unwrap_or_default();
+    Ok(temp::temp_path(&dir.join(name), Some(ext)))
 }
 
 /// Writes `bytes` to `path` atomically, creating parent directories.
 pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = temp_path(path, "part")?;
-    if let Err(e) = std::fs::write(&tmp, bytes) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::io(&tmp, e));
+    if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(d).map_err(|e| Error::io(d, e))?;
     }
+    let tmp = temp::write_temp(path, bytes, false)?;
     commit(&tmp, path)
 }
 

@@ -27,6 +27,7 @@
 mod obj;
 mod off;
 mod ply;
+pub mod temp;
 mod text;
 mod tosca;
 
@@ -241,12 +242,9 @@ pub fn write_off(path: &Path, mesh: &Mesh) -> Result<()> {
     write_atomic(path, &off::off_bytes(mesh))
 }
 
-/// Writes `bytes` to `path` through a temporary file and a rename.
+/// Writes `bytes` to `path` through a temporary file of this process
+/// ([`temp`]: dot-prefixed, removed if the write fails) and a rename.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = path.with_extension(format!(
-        "{}.tmp",
-        path.extension().and_then(|e| e.to_str()).unwrap_or("")
-    ));
-    std::fs::write(&tmp, bytes).map_err(|e| Error::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+    let tmp = temp::write_temp(path, bytes, false)?;
+    temp::commit(&tmp, path)
 }
