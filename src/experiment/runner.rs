@@ -591,6 +591,11 @@ fn report_bound(dir: &Path, b: Bound) {
              ({files} files) recorded in config.json",
             dir.display()
         ),
+        Bound::Extended(added) => eprintln!(
+            "{}: the config adds method(s) {}; the stored results are kept",
+            dir.display(),
+            added.join(", ")
+        ),
         Bound::Rebound => eprintln!(
             "{}: held no result of its former config; bound to this one",
             dir.display()

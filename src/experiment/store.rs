@@ -354,6 +354,9 @@ pub enum Bound {
     Adopted { files: usize },
     /// Another key but no stored result: rebound to this config.
     Rebound,
+    /// The same config with these methods added: the stored results are
+    /// kept (a method's results do not depend on the other methods).
+    Extended(Vec<String>),
     /// Another key, `--force`: its content moved to this folder.
     Superseded(PathBuf),
 }
@@ -422,6 +425,18 @@ impl Store {
                 return Ok(Bound::Adopted {
                     files: d.files.len(),
                 });
+            }
+        }
+        if let Some(added) = added_methods(&old.config, &stored.config) {
+            if old.data == stored.data {
+                let extended = StoredConfig {
+                    adopted_from: Some(old.hash.clone()),
+                    ..stored.clone()
+                };
+                let bytes = serde_json::to_vec_pretty(&extended)
+                    .map_err(|e| Error::invalid(format!("config to JSON: {e}")))?;
+                write_file(&path, &bytes, true)?;
+                return Ok(Bound::Extended(added));
             }
         }
         if o.alone && !self.has_results() {
@@ -633,8 +648,58 @@ impl Store {
     }
 }
 
+/// The names of the methods `new` adds to `old` when that is their only
+/// difference: every method of `old` is in `new`, unchanged and in the same
+/// order, and every other key is the same.
+fn added_methods(old: &serde_json::Value, new: &serde_json::Value) -> Option<Vec<String>> {
+    let methods = |v: &serde_json::Value| v.get("methods").and_then(|m| m.as_array()).cloned();
+    let (a, b) = (methods(old)?, methods(new)?);
+    let rest = |v: &serde_json::Value| {
+        let mut v = without_data_paths(v);
+        if let Some(o) = v.as_object_mut() {
+            o.remove("methods");
+        }
+        v
+    };
+    if a.len() >= b.len() || rest(old) != rest(new) {
+        return None;
+    }
+    let mut i = 0;
+    let mut added = Vec::new();
+    for m in &b {
+        if i < a.len() && a[i] == *m {
+            i += 1;
+        } else {
+            added.push(m.get("name")?.as_str()?.to_string());
+        }
+    }
+    (i == a.len()).then_some(added)
+}
+
+/// The name of every element of an array of named objects.
+fn names_of(v: &[serde_json::Value]) -> Option<Vec<&str>> {
+    v.iter().map(|x| x.get("name")?.as_str()).collect()
+}
+
 fn json_diff(prefix: &str, a: &serde_json::Value, b: &serde_json::Value, out: &mut Vec<String>) {
     use serde_json::Value;
+    if let (Value::Array(x), Value::Array(y)) = (a, b) {
+        if let (Some(nx), Some(ny)) = (names_of(x), names_of(y)) {
+            if nx != ny {
+                // Named entries (methods): by name.
+                for (n, u) in nx.iter().zip(x) {
+                    match ny.iter().position(|m| m == n) {
+                        Some(j) => json_diff(&format!("{prefix}.{n}"), u, &y[j], out),
+                        None => out.push(format!("{prefix}.{n} (only there)")),
+                    }
+                }
+                for n in ny.iter().filter(|n| !nx.contains(n)) {
+                    out.push(format!("{prefix}.{n} (only now)"));
+                }
+                return;
+            }
+        }
+    }
     match (a, b) {
         (Value::Object(x), Value::Object(y)) => {
             let mut keys: Vec<&String> = x.keys().chain(y.keys()).collect();
