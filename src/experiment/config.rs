@@ -12,7 +12,8 @@
 //! [dataset.synthetic]           # or [dataset.faust] path = "..."
 //! subjects = 3                  #    [dataset.tosca] path = "...", class = "cactus"
 //! poses = 4                     #    [dataset.manifest] path = ".../manifest.toml"
-//! resolution = 1                # (paths are relative to this config file)
+//! resolution = 1                # (paths: `@data/...` under the data root,
+//!                               #  others relative to this config file)
 //!
 //! [cases]                       # source subject → target subjects × poses
 //! sources = [0]                 # default: every subject
@@ -46,6 +47,9 @@
 //! [metrics]
 //! procrustes = false            # rigid alignment before measuring
 //! curve_max = 0.2               # cumulative curve grid, unit-sphere units
+//!
+//! [sweep]                       # method variants (super::sweep)
+//! defaults.epsilon = [0.01, 0.02]
 //!
 //! [outputs]                     # output-only: not part of the config hash
 //! render_cases = 1

@@ -1,7 +1,10 @@
 //! The result store of one experiment folder.
 //!
 //! ```text
-//! DIR/config.json          the hashed part of the config + its hash (written first)
+//! DIR/config.json          the store key (`hash`): the config as run and the input
+//!                          files' fingerprint (`data`); written first (see [`StoredConfig`])
+//! DIR/.fingerprints.json   cached hashes of the input files ([`super::fingerprint`])
+//! DIR/failed/<case>/<method>.json  failed results moved aside by `--retry-failed`
 //! DIR/cases/<case>/<method>.json   one finished case × method (atomic, never overwritten)
 //! DIR/meshes/<case>/...    meshes saved for renders: source, deformed, target, truth, and
 //!                          the results of the first method of each group ([outputs] render_*)
