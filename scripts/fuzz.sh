@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs every cargo-fuzz target in fuzz/ for SECONDS each (default 600), one
-# after the other, at low priority, and prints executions, time and crashes
-# per target. Crash inputs land in fuzz/artifacts/<target>/.
+# after the other (FUZZ_JOBS=N: N at a time), at low priority, and prints
+# executions, time and crashes per target. Crash inputs land in fuzz/artifacts/<target>/.
 #
 #   scripts/fuzz.sh [SECONDS] [TARGET...]
 #
@@ -37,11 +37,12 @@ if ! nice -n 10 cargo fuzz build --fuzz-dir fuzz -s "$SANITIZER" >"$LOG_DIR/fuzz
     fi
 fi
 
-printf '%-12s %14s %9s %8s\n' target executions seconds crashes
-status=0
-for t in "${TARGETS[@]}"; do
-    log="$LOG_DIR/fuzz_$t.log"
+# One target: runs it, then writes its table row to $LOG_DIR/fuzz_<t>.row.
+run_target() {
+    local t="$1"
+    local log="$LOG_DIR/fuzz_$t.log"
     mkdir -p "fuzz/corpus/$t" "fuzz/artifacts/$t"
+    local before after start end rc execs
     before=$(find "fuzz/artifacts/$t" -type f | wc -l)
     start=$(date +%s)
     set +e
@@ -53,10 +54,31 @@ for t in "${TARGETS[@]}"; do
     end=$(date +%s)
     after=$(find "fuzz/artifacts/$t" -type f | wc -l)
     execs=$(grep -ao 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -1 || true)
-    printf '%-12s %14s %9s %8s\n' "$t" "${execs:-?}" "$((end - start))" "$((after - before))"
+    printf '%-12s %14s %9s %8s %4s\n' "$t" "${execs:-?}" "$((end - start))" "$((after - before))" "$rc" \
+        >"$LOG_DIR/fuzz_$t.row"
+}
+
+# FUZZ_JOBS targets at a time (default 1: one after the other).
+JOBS="${FUZZ_JOBS:-1}"
+running=0
+for t in "${TARGETS[@]}"; do
+    run_target "$t" &
+    running=$((running + 1))
+    if [ "$running" -ge "$JOBS" ]; then
+        wait -n || true
+        running=$((running - 1))
+    fi
+done
+wait
+
+printf '%-12s %14s %9s %8s\n' target executions seconds crashes
+status=0
+for t in "${TARGETS[@]}"; do
+    read -r name execs secs crashes rc <"$LOG_DIR/fuzz_$t.row"
+    printf '%-12s %14s %9s %8s\n' "$name" "$execs" "$secs" "$crashes"
     if [ "$rc" -ne 0 ]; then
         status=1
-        echo "  $t exited with $rc; see $log and fuzz/artifacts/$t/" >&2
+        echo "  $t exited with $rc; see $LOG_DIR/fuzz_$t.log and fuzz/artifacts/$t/" >&2
     fi
 done
 exit "$status"

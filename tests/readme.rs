@@ -35,3 +35,102 @@ fn readme_names_the_two_commands_and_its_images_exist() {
     let headers = text.matches("\n| | |\n").count();
     assert!(headers <= 1, "the results table appears {headers} times");
 }
+
+/// The README's suite facts are those of the committed default suite: the
+/// experiment count is the number of default configs (each with its
+/// results folder), and the measured wall time is the manifests' (the sum
+/// over experiments of the invocations that computed something, within
+/// 25 %). Regenerating `results/` without updating the README fails here.
+#[test]
+fn readme_suite_figures_match_the_committed_results() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("README.md")).unwrap();
+    let configs: Vec<String> = std::fs::read_dir(root.join("experiments"))
+        .unwrap()
+        .filter_map(|e| {
+            let p = e.unwrap().path();
+            (p.extension().is_some_and(|x| x == "toml"))
+                .then(|| p.file_stem().unwrap().to_string_lossy().into_owned())
+        })
+        .collect();
+    let stated = format!("The suite ({} experiments)", configs.len());
+    assert!(
+        text.contains(&stated),
+        "README must say \"{stated}\" (experiments/*.toml holds {})",
+        configs.len()
+    );
+    let mut total = 0.0;
+    for c in &configs {
+        let toml_text =
+            std::fs::read_to_string(root.join("experiments").join(format!("{c}.toml"))).unwrap();
+        let name = toml_text
+            .lines()
+            .find_map(|l| l.strip_prefix("name = \""))
+            .and_then(|l| l.split('"').next())
+            .unwrap_or_else(|| panic!("{c}.toml has no name"));
+        let manifest = root.join("results").join(name).join("manifest.json");
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&manifest).unwrap_or_else(|e| {
+                panic!("{}: {e} (results not regenerated?)", manifest.display())
+            }))
+            .unwrap();
+        let invocations = m["invocations"].as_array().expect("invocations");
+        total += invocations
+            .iter()
+            .filter(|i| i["computed"].as_u64().unwrap_or(0) > 0)
+            .map(|i| i["wall_seconds"].as_f64().unwrap_or(0.0))
+            .sum::<f64>();
+    }
+    let measured = text
+        .split("(measured:")
+        .nth(1)
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|s| s.parse::<f64>().ok())
+        .expect("README states the suite's measured wall time as \"(measured: N s\"");
+    assert!(
+        (measured - total).abs() <= 0.25 * total,
+        "README says the suite took {measured} s; the committed manifests sum to {total:.0} s"
+    );
+}
+
+/// Every `deformlab <command>` the README's command table names exists
+/// (its `--help` exits 0), and every `experiments/…toml` it names is there.
+#[test]
+fn readme_commands_and_configs_exist() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("README.md")).unwrap();
+    let mut commands = std::collections::BTreeSet::new();
+    for line in text.lines().filter(|l| l.starts_with("| `deformlab ")) {
+        let cmd = line["| `deformlab ".len()..]
+            .split(|c: char| !c.is_ascii_lowercase())
+            .next()
+            .unwrap()
+            .to_string();
+        commands.insert(cmd);
+    }
+    assert!(commands.len() >= 5, "command table not found: {commands:?}");
+    for c in &commands {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_deformlab"))
+            .args([c.as_str(), "--help"])
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "README names `deformlab {c}`, which does not exist"
+        );
+    }
+    for part in text.split("experiments/").skip(1) {
+        let name: String = part
+            .chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '/' | '.'))
+            .collect();
+        if let Some(stem) = name.strip_suffix(".toml") {
+            if !stem.contains('*') {
+                assert!(
+                    root.join("experiments").join(&name).is_file(),
+                    "README names experiments/{name}, which does not exist"
+                );
+            }
+        }
+    }
+}

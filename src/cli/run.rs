@@ -39,9 +39,9 @@ pub struct RunArgs {
     #[arg(long, default_value = "results")]
     pub out: PathBuf,
     /// Worker threads (cases × methods and key point candidates run on them);
-    /// results do not depend on it. Capped to 4 × the available cores (at
-    /// most 256).
-    #[arg(long, default_value_t = 2, value_parser = super::Threads::parse)]
+    /// results do not depend on it. Default: the available cores. Capped to
+    /// 4 × the available cores (at most 256).
+    #[arg(long, default_value_t = deformlab::solve::default_threads(), value_parser = super::Threads::parse)]
     pub threads: usize,
     /// Run only the cases with index % N == i (join with `deformlab merge`).
     #[arg(long, value_name = "i/N")]

@@ -185,9 +185,30 @@ fn serve_case_meshes(col: &Collection, cases: &[&Case], strict: bool) -> Result<
 }
 
 enum Progress {
-    Bar(indicatif::ProgressBar),
-    Log { total: usize, start: Instant },
+    /// The case bar; long steps inside a case write their progress into its
+    /// message ([`crate::solve::progress`]) while the guard lives.
+    Bar {
+        bar: indicatif::ProgressBar,
+        _sink: crate::solve::progress::SinkGuard,
+    },
+    Log {
+        total: usize,
+        start: Instant,
+    },
     Quiet,
+}
+
+/// Long steps' progress shown in the case bar's message.
+struct StepSink(indicatif::ProgressBar);
+
+impl crate::solve::progress::ProgressSink for StepSink {
+    fn update(&self, step: &str, done: usize, total: usize) {
+        self.0.set_message(if total > 0 {
+            format!("{step} {done}/{total}")
+        } else {
+            format!("{step} {done}")
+        });
+    }
 }
 
 impl Progress {
@@ -203,7 +224,8 @@ impl Progress {
                 bar.set_style(style.progress_chars("=> "));
             }
             bar.set_prefix(name.to_string());
-            Progress::Bar(bar)
+            let guard = crate::solve::progress::install(std::sync::Arc::new(StepSink(bar.clone())));
+            Progress::Bar { bar, _sink: guard }
         } else {
             Progress::Log {
                 total,
@@ -214,7 +236,7 @@ impl Progress {
 
     fn tick(&self, done: usize, line: &str) {
         match self {
-            Progress::Bar(b) => {
+            Progress::Bar { bar: b, .. } => {
                 b.set_message(line.to_string());
                 b.set_position(done as u64);
             }
@@ -232,7 +254,7 @@ impl Progress {
     }
 
     fn finish(&self) {
-        if let Progress::Bar(b) = self {
+        if let Progress::Bar { bar: b, .. } = self {
             let (n, el) = (b.position(), b.elapsed().as_secs_f64());
             b.finish_and_clear();
             eprintln!("{}: {n} case × method results in {el:.1} s", b.prefix());
@@ -295,12 +317,13 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
         .iter()
         .filter(|c| opts.shard.is_none_or(|s| s.contains(c.index)))
         .collect();
-    // Values the data make impossible: one error before any case runs.
-    super::feasible::check_against_data(l, &col, &mine)?;
     let strict = l.config.dataset.policy().strict;
-    if !store.config_path().exists() {
-        // A new folder: meshes refused in strict mode stop the run before
-        // the folder exists.
+    let new_folder = !store.config_path().exists();
+    if new_folder {
+        // A new folder (every case to compute): values the data make
+        // impossible and, in strict mode, refused meshes stop the run
+        // before the folder exists.
+        super::feasible::check_against_data(l, &col, &mine)?;
         serve_case_meshes(&col, &mine, strict)?;
     }
     let (stored, cache) = stored_config(l, &col, &dir)?;
@@ -364,6 +387,11 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
     }
     let mut pending: Vec<&Case> = work.iter().map(|(c, _)| *c).collect();
     pending.dedup_by_key(|c| c.index);
+    // Values the data make impossible: one error before any case runs (a
+    // resumed run with nothing to compute loads no mesh).
+    if !pending.is_empty() && !new_folder {
+        super::feasible::check_against_data(l, &col, &pending)?;
+    }
     serve_case_meshes(&col, &pending, strict)?;
 
     let render_cases = l.config.outputs.render_cases();

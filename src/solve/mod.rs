@@ -41,6 +41,15 @@ pub fn max_threads() -> usize {
     (4 * cores).clamp(1, THREAD_LIMIT)
 }
 
+/// The default worker count of `run`: the cores the process may use
+/// (`std::thread::available_parallelism`, 1 when unknown), at most
+/// [`THREAD_LIMIT`].
+pub fn default_threads() -> usize {
+    std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .clamp(1, THREAD_LIMIT)
+}
+
 /// Upper bound of [`max_threads`] whatever the machine.
 pub const THREAD_LIMIT: usize = 256;
 
