@@ -204,7 +204,7 @@ fn every_shipped_config_loads() {
         for entry in std::fs::read_dir(&dir).unwrap() {
             let p = entry.unwrap().path();
             if p.extension().is_some_and(|e| e == "toml") {
-                let c = deformlab::experiment::config::load_config_schema(&p)
+                let c = deformlab::experiment::load_config_schema(&p)
                     .unwrap_or_else(|e| panic!("{}: {e}", p.display()));
                 match c.check_paths() {
                     Ok(()) => {}

@@ -91,6 +91,9 @@ fn tiny_fbt_config_runs_through_the_harness() {
         max_new: None,
         wait: true,
         defects: Default::default(),
+        load: Default::default(),
+        force: false,
+        retry_failed: false,
     };
     let s = run_configs(std::slice::from_ref(&cfg), &opts).unwrap();
     assert_eq!(s[0].computed, 8);
@@ -289,7 +292,7 @@ fn shipped_fbt_configs_load() {
         // The real variants: their schema always; their data paths only
         // where ../shared/data is present.
         let real = root.join("real").join(format!("{name}-tosca.toml"));
-        let c = deformlab::experiment::config::load_config_schema(&real).unwrap();
+        let c = deformlab::experiment::load_config_schema(&real).unwrap();
         assert_eq!(c.config.name, format!("{name}-tosca"));
         match c.check_paths() {
             Ok(()) => {}

@@ -79,6 +79,9 @@ fbt = { task = "projection", q = 2 }
         max_new: None,
         wait: true,
         defects: Default::default(),
+        load: Default::default(),
+        force: false,
+        retry_failed: false,
     };
     let s = run_configs(std::slice::from_ref(&cfg), &opts).unwrap();
     assert_eq!(s[0].failed, 0, "a method failed on the class with debris");

@@ -204,7 +204,7 @@ fn cli_auto_correspondence_end_to_end() {
 
 #[test]
 fn config_keys_are_validated_and_named() {
-    use deformlab::experiment::config::{parse_config, Method};
+    use deformlab::experiment::{parse_config, Method};
     use deformlab::methods::{TargetCorrespondence, TransferMethod};
     let p = std::path::Path::new("auto.toml");
     let ok = parse_config(

@@ -11,7 +11,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::experiment::config::parse_config;
+use crate::experiment::parse_config;
 use crate::experiment::record::{owned, CaseMeshes};
 use crate::experiment::{generate_cases, Collection, Method};
 use crate::methods::{KeypointSource, TargetPoints, TransferCase, TransferMethod};

@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 use super::correspondence::{PairFile, PairFormat, VertexPair};
+use super::root::DataRoot;
 use crate::mesh::io::{check_regular_file, read_input_text, read_mesh};
 use crate::mesh::Mesh;
 use crate::{Error, Result};
@@ -332,7 +333,7 @@ impl ManifestCorrespondence {
 /// name = "my set"                      # optional
 ///
 /// [[mesh]]
-/// file = "a.ply"                       # relative to the manifest
+/// file = "a.ply"                       # relative to the manifest (`@data/...`: the data root)
 /// subject = 0                          # optional, number or name
 /// pose = "walk"                        # optional, number or name
 /// class = "cat"                        # optional
@@ -356,8 +357,15 @@ pub struct Manifest {
 
 impl Manifest {
     /// Reads and checks a manifest: keys, referenced files exist, mesh files
-    /// unique, correspondences name listed meshes, bases are 0 or 1.
+    /// unique, correspondences name listed meshes, bases are 0 or 1. Files
+    /// named `@data/...` are found under the data root of the environment
+    /// ([`DataRoot::from_env`]).
     pub fn open(path: &Path) -> Result<Self> {
+        Self::open_in(path, &DataRoot::from_env(None))
+    }
+
+    /// [`Manifest::open`] with the data root `root` for `@data/...` files.
+    pub fn open_in(path: &Path, root: &DataRoot) -> Result<Self> {
         let text = read_input_text(path)?;
         let spec: ManifestSpec = toml::from_str(&text).map_err(|e| {
             let location = match e.span() {
@@ -372,12 +380,16 @@ impl Manifest {
         let dir = path.parent().unwrap_or(Path::new("."));
         let mut meshes: Vec<ManifestMesh> = Vec::new();
         for (i, m) in spec.mesh.into_iter().enumerate() {
-            let p = dir.join(&m.file);
+            let p = root.resolve(Path::new(&m.file), dir);
             if !p.exists() {
                 return Err(Error::parse(
                     path,
                     format!("mesh[{i}].file"),
-                    format!("{} does not exist", p.display()),
+                    format!(
+                        "{} does not exist{}",
+                        p.display(),
+                        root.hint(Path::new(&m.file))
+                    ),
                 ));
             }
             check_regular_file(&p)?;
@@ -409,12 +421,16 @@ impl Manifest {
             };
             let source = find("source", &c.source)?;
             let target = find("target", &c.target)?;
-            let p = dir.join(&c.file);
+            let p = root.resolve(Path::new(&c.file), dir);
             if !p.exists() {
                 return Err(Error::parse(
                     path,
                     format!("correspondence[{i}].file"),
-                    format!("{} does not exist", p.display()),
+                    format!(
+                        "{} does not exist{}",
+                        p.display(),
+                        root.hint(Path::new(&c.file))
+                    ),
                 ));
             }
             check_regular_file(&p)?;

@@ -12,7 +12,8 @@
 //! [dataset.synthetic]           # or [dataset.faust] path = "..."
 //! subjects = 3                  #    [dataset.tosca] path = "...", class = "cactus"
 //! poses = 4                     #    [dataset.manifest] path = ".../manifest.toml"
-//! resolution = 1                # (paths are relative to this config file)
+//! resolution = 1                # (paths: `@data/...` under the data root,
+//!                               #  others relative to this config file)
 //!
 //! [cases]                       # source subject → target subjects × poses
 //! sources = [0]                 # default: every subject
@@ -46,6 +47,9 @@
 //! [metrics]
 //! procrustes = false            # rigid alignment before measuring
 //! curve_max = 0.2               # cumulative curve grid, unit-sphere units
+//!
+//! [sweep]                       # method variants (super::sweep)
+//! defaults.epsilon = [0.01, 0.02]
 //!
 //! [outputs]                     # output-only: not part of the config hash
 //! render_cases = 1
@@ -84,6 +88,7 @@ use super::range::{
     UnitInterval,
 };
 use crate::data::synthetic::{pose::N_POSES, MAX_RESOLUTION, MAX_SUBJECTS};
+use crate::data::DataRoot;
 use crate::mesh::repair::DefectPolicy;
 use crate::methods::completion::{
     CompareWith, DictionaryKind, FbtOptions, FeatureOptions, PipelineKind, RestartOptions,
@@ -131,6 +136,10 @@ pub struct Config {
     /// Output-only settings (not hashed).
     #[serde(default)]
     pub outputs: OutputSpec,
+    /// `[sweep]` / `[[sweep]]`: method variants, expanded when the config
+    /// is loaded ([`super::sweep`]); the expanded config has none.
+    #[serde(default, skip_serializing)]
+    pub sweep: Option<toml::Value>,
 }
 
 /// A subject or pose label: a number (`3`) or a name (`"rest"`).
@@ -1051,13 +1060,20 @@ pub struct LoadedConfig {
     pub path: PathBuf,
     /// Its folder: relative dataset paths are resolved against it.
     pub base_dir: PathBuf,
+    /// The data root: `@data/...` dataset paths are resolved against it.
+    pub data_root: DataRoot,
     pub methods: Vec<NamedMethod>,
+    /// Command-line overrides applied (`--set KEY=VALUE`, as given).
+    pub overrides: Vec<String>,
+    /// The sweep expanded into methods, if any ([`super::sweep`]): its
+    /// axes and the methods each template became, for the manifest.
+    pub sweep: Option<serde_json::Value>,
 }
 
 /// Columns of cases.csv that plots may name (see [`crate::experiment::store`]).
 pub use super::store::CASE_COLUMNS;
 
-fn valid_name(s: &str) -> bool {
+pub(super) fn valid_name(s: &str) -> bool {
     !s.is_empty()
         && s.len() <= 100
         && s.bytes()
@@ -1162,17 +1178,9 @@ fn expand(name: &str, arrays: &BTreeMap<String, String>) -> String {
     }
 }
 
-/// Parses a config text (`path` is used in messages and to resolve relative
-/// dataset paths).
-pub fn parse_config(text: &str, path: &Path) -> Result<LoadedConfig> {
-    let loaded = parse_unchecked(text, path)?;
-    check_dataset(&loaded)?;
-    check_outputs(&loaded)?;
-    loaded.check_paths()?;
-    Ok(loaded)
-}
-
-fn parse_unchecked(text: &str, path: &Path) -> Result<LoadedConfig> {
+/// Parses a config text and resolves its methods (no dataset or output
+/// checks), with the data root `root`.
+pub(super) fn parse_unchecked_in(text: &str, path: &Path, root: &DataRoot) -> Result<LoadedConfig> {
     let config: Config = toml::from_str(text).map_err(|e| {
         let msg = e.message().trim().to_string();
         match e.span() {
@@ -1197,31 +1205,11 @@ fn parse_unchecked(text: &str, path: &Path) -> Result<LoadedConfig> {
         config,
         path: path.to_path_buf(),
         base_dir,
+        data_root: root.clone(),
         methods,
+        overrides: Vec::new(),
+        sweep: None,
     };
-    Ok(loaded)
-}
-
-/// Reads and parses a config file (schema, values and dataset paths).
-pub fn load_config(path: &Path) -> Result<LoadedConfig> {
-    let text = crate::mesh::io::read_input_text(path)?;
-    parse_config(&text, path)
-}
-
-/// Reads a config file and checks its schema and values, but not whether
-/// its dataset paths exist: for checking configs whose data is elsewhere
-/// (e.g. `experiments/real/` without `../shared/data`). A run needs
-/// [`load_config`].
-pub fn load_config_schema(path: &Path) -> Result<LoadedConfig> {
-    let text = crate::mesh::io::read_input_text(path)?;
-    parse_config_schema(&text, path)
-}
-
-/// [`parse_config`] without the dataset path check.
-pub fn parse_config_schema(text: &str, path: &Path) -> Result<LoadedConfig> {
-    let loaded = parse_unchecked(text, path)?;
-    check_dataset(&loaded)?;
-    check_outputs(&loaded)?;
     Ok(loaded)
 }
 
@@ -1230,13 +1218,19 @@ fn bad(path: &Path, key: impl Into<String>, msg: impl Into<String>) -> Error {
 }
 
 impl LoadedConfig {
+    /// A dataset path of the config resolved: `@data/...` against the data
+    /// root, other relative paths against the config's folder.
+    pub fn resolve_path(&self, p: &Path) -> PathBuf {
+        self.data_root.resolve(p, &self.base_dir)
+    }
+
     /// Errors (naming the key and the path) if a dataset path of the
     /// config does not exist.
     pub fn check_paths(&self) -> Result<()> {
         let c = self;
         let d = &c.config.dataset;
         let check = |key: &str, p: &Path, want_dir: bool| -> Result<()> {
-            let full = c.base_dir.join(p);
+            let full = c.resolve_path(p);
             let ok = if want_dir {
                 full.is_dir()
             } else {
@@ -1258,13 +1252,24 @@ impl LoadedConfig {
                     key,
                     format!("expected a {what}, but {} {found}", full.display()),
                 ))
+            } else if DataRoot::names(p) {
+                Err(bad(
+                    &c.path,
+                    key,
+                    format!(
+                        "expected an existing {what}, but {} ({}) does not exist: {}",
+                        full.display(),
+                        p.display(),
+                        c.data_root.describe()
+                    ),
+                ))
             } else {
                 Err(bad(
                     &c.path,
                     key,
                     format!(
                         "expected an existing {what} (relative paths are relative to the config \
-                         file), but {} does not exist",
+                         file; `@data/...` to the data root), but {} does not exist",
                         full.display()
                     ),
                 ))
@@ -1283,7 +1288,7 @@ impl LoadedConfig {
     }
 }
 
-fn check_dataset(c: &LoadedConfig) -> Result<()> {
+pub(super) fn check_dataset(c: &LoadedConfig) -> Result<()> {
     let d = &c.config.dataset;
     let n = [
         d.synthetic.is_some(),
@@ -1305,7 +1310,7 @@ fn check_dataset(c: &LoadedConfig) -> Result<()> {
     Ok(())
 }
 
-fn check_outputs(c: &LoadedConfig) -> Result<()> {
+pub(super) fn check_outputs(c: &LoadedConfig) -> Result<()> {
     for (i, p) in c.config.outputs.plots.iter().enumerate() {
         let columns = p.metrics.iter().chain(p.x.iter()).chain(p.by.iter());
         let pivot = p
@@ -1751,6 +1756,24 @@ impl Config {
         }
     }
 
+    /// [`Config::hashed_part`] without where the data live (dataset paths
+    /// emptied): what the result store's key is made of, with the content
+    /// of the data ([`super::fingerprint`]), so that moving the data or
+    /// spelling their path otherwise keeps the results.
+    pub fn key_part(&self) -> Config {
+        let mut c = self.hashed_part();
+        if let Some(f) = &mut c.dataset.faust {
+            f.path = PathBuf::new();
+        }
+        if let Some(f) = &mut c.dataset.tosca {
+            f.path = PathBuf::new();
+        }
+        if let Some(f) = &mut c.dataset.manifest {
+            f.path = PathBuf::new();
+        }
+        c
+    }
+
     /// FNV-1a 64 of the canonical JSON of [`Config::hashed_part`], as 16 hex digits.
     pub fn hash(&self) -> String {
         let json = serde_json::to_string(&self.hashed_part()).unwrap_or_default();
@@ -1782,20 +1805,23 @@ mod tests {
     #[test]
     fn hash_ignores_outputs_only() {
         let p = Path::new("x.toml");
-        let a = parse_config(
+        let a = parse_unchecked_in(
             "name = \"a\"\n[[methods]]\nname = \"m\"\nkind = \"bdt\"\n",
             p,
+            &DataRoot::default(),
         )
         .unwrap();
-        let b = parse_config(
+        let b = parse_unchecked_in(
             "name = \"a\"\ndescription = \"d\"\n[[methods]]\nname = \"m\"\nkind = \"bdt\"\n\
              [outputs]\nrender_cases = 3\n",
             p,
+            &DataRoot::default(),
         )
         .unwrap();
-        let c = parse_config(
+        let c = parse_unchecked_in(
             "name = \"a\"\n[[methods]]\nname = \"m\"\nkind = \"bdt\"\nn_candidates = 5\n",
             p,
+            &DataRoot::default(),
         )
         .unwrap();
         assert_eq!(a.config.hash(), b.config.hash());

@@ -46,6 +46,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use super::config::LoadedConfig;
 use crate::data::folders::{FaustFolder, Label, Manifest, ToscaFolder};
+use crate::data::DataRoot;
 use crate::mesh::io::read_mesh;
 use crate::mesh::repair::{DefectPolicy, FaceRepair};
 use crate::mesh::set::{compare_faces, FaceMatch};
@@ -412,15 +413,14 @@ impl Collection {
 
     fn open_unchecked(cfg: &LoadedConfig) -> Result<Self> {
         let d = &cfg.config.dataset;
-        let base = &cfg.base_dir;
         if let Some(f) = &d.faust {
-            return Self::faust(&base.join(&f.path));
+            return Self::faust(&cfg.resolve_path(&f.path));
         }
         if let Some(t) = &d.tosca {
-            return Self::tosca(&base.join(&t.path), t.classes.as_deref());
+            return Self::tosca(&cfg.resolve_path(&t.path), t.classes.as_deref());
         }
         if let Some(m) = &d.manifest {
-            return Self::manifest(&base.join(&m.path));
+            return Self::manifest(&cfg.resolve_path(&m.path), &cfg.data_root);
         }
         let synth = d.synthetic.clone().unwrap_or_default();
         let spec = synth.faust_style();
@@ -552,8 +552,8 @@ impl Collection {
         })
     }
 
-    fn manifest(path: &Path) -> Result<Self> {
-        let m = Manifest::open(path)?;
+    fn manifest(path: &Path, root: &DataRoot) -> Result<Self> {
+        let m = Manifest::open_in(path, root)?;
         let mut subjects: Vec<Subject> = Vec::new();
         for mesh in &m.meshes {
             let sid = mesh
@@ -596,6 +596,21 @@ impl Collection {
             subjects,
             labels: None,
         })
+    }
+
+    /// Every file the dataset serves, as `(subject/pose, path)` in the
+    /// dataset's order (none for a dataset generated in memory): the input
+    /// files the result store fingerprints ([`super::fingerprint`]).
+    pub fn input_files(&self) -> Vec<(String, PathBuf)> {
+        self.subjects
+            .iter()
+            .flat_map(|s| {
+                s.poses
+                    .iter()
+                    .chain(&s.extra)
+                    .filter_map(move |e| Some((format!("{}/{}", s.id, e.id), e.path.clone()?)))
+            })
+            .collect()
     }
 
     /// The subject `id`.

@@ -227,8 +227,14 @@ impl FolderLock {
     /// `.lock` exclusively (`merge` into `dir`; stale temporaries are
     /// removed), waiting for other users with a message.
     pub fn exclusive(dir: &Path, what: &str) -> Result<FolderLock> {
+        Self::exclusive_or_stop(dir, what, true)
+    }
+
+    /// [`FolderLock::exclusive`]; `wait = false`: an error naming the
+    /// holder instead of waiting (`run --force --no-wait` with a shard).
+    pub fn exclusive_or_stop(dir: &Path, what: &str, wait: bool) -> Result<FolderLock> {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-        let f = acquire(&dir.join(".lock"), Mode::Exclusive, true, dir, what)?;
+        let f = acquire(&dir.join(".lock"), Mode::Exclusive, wait, dir, what)?;
         remove_stale_temporaries(dir)?;
         Ok(FolderLock {
             dir: dir.to_path_buf(),

@@ -96,8 +96,25 @@ impl DefectNote {
 pub struct Manifest {
     pub name: String,
     pub config_file: String,
+    /// The store key of the folder (`config.json`'s `hash`: the config
+    /// and, for data read from files, their content fingerprint).
     pub config_hash: String,
-    /// The full config (output settings included).
+    /// `--set KEY=VALUE` overrides applied to the config file, in order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub overrides: Vec<String>,
+    /// The sweep expanded into methods: its axes (key, values, name parts,
+    /// grid, whether from the file or `--sweep`) and each swept method's
+    /// variants ([`super::sweep`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sweep: Option<serde_json::Value>,
+    /// The data root of the last run, when the data are files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub data_root: Option<String>,
+    /// The fingerprint of the input files (`config.json`'s `data.hash`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub data_hash: Option<String>,
+    /// The full config as run (overrides applied, sweep expanded, output
+    /// settings included).
     pub config: serde_json::Value,
     pub seed: u64,
     pub crate_version: String,

@@ -16,6 +16,8 @@ pub mod config;
 pub mod dataset;
 pub mod fbt;
 pub mod feasible;
+pub mod fingerprint;
+pub mod load;
 pub mod lock;
 pub mod manifest;
 pub mod plots;
@@ -23,10 +25,15 @@ pub mod range;
 pub mod record;
 pub mod runner;
 pub mod store;
+pub mod sweep;
 
 pub use cases::{generate_cases, Case};
-pub use config::{load_config, parse_config, Config, LoadedConfig, Method, NamedMethod};
+pub use config::{Config, LoadedConfig, Method, NamedMethod};
 pub use dataset::Collection;
+pub use load::{
+    load_config, load_config_schema, load_config_with, parse_config, parse_config_schema,
+    parse_config_with, LoadOptions,
+};
 pub use lock::FolderLock;
 pub use manifest::{read_manifest, Manifest, Shard};
 pub use plots::make_plots;

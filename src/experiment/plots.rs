@@ -293,7 +293,7 @@ pub fn make_plots(dir: &Path) -> Result<Vec<String>> {
     Ok(ctx.warnings)
 }
 
-fn default_plots(c: &Config) -> Vec<PlotSpec> {
+pub(super) fn default_plots(c: &Config) -> Vec<PlotSpec> {
     use super::config::MethodKind;
     let spec = |kind, metrics: &[&str]| PlotSpec {
         kind,

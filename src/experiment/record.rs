@@ -34,7 +34,9 @@
 //!   the ground truths against `B` (poses with a truth).
 //! * `fit_error_unit`: the same mean distance between `D_S(A)` (the fit on
 //!   the source) and `A′_j`, in unit-sphere units of `A`.
-//! * `selection_error`: the selection's own error (its `error_norm`).
+//! * `selection_error`: the selection's own error (its `error_norm`);
+//!   `epsilon` and `n_candidates`: the selection's threshold ε and FPS
+//!   candidates (automatic selections only; what a sweep of them varies).
 //! * `arap_energy` / `arap_energy_truth`: relative ARAP energy of `B′_j`
 //!   (resp. the ground truth) against `B`, mean over poses.
 //! * `distortion_area` / `distortion_edge`: area-weighted mean `|log|` face
@@ -80,6 +82,7 @@ use crate::methods::{
 };
 use crate::ops::geodesic::EdgeGraph;
 use crate::ops::total_area;
+use crate::transfer::KeypointOptions;
 use crate::Result;
 
 /// The meshes of a case.
@@ -220,6 +223,10 @@ fn transfer(
     })?;
     if let Some(p) = &o.keypoints {
         record_keypoints(p, out);
+        if let (Some(_), Some(k)) = (&p.selection, selection_options(method)) {
+            out.set("epsilon", num(k.epsilon));
+            out.set("n_candidates", k.n_candidates.to_string());
+        }
     }
     if let (Some(found), Some(p)) = (&o.target, &o.keypoints) {
         record_target(a, b, &p.keypoints, found, method, out)?;
@@ -297,6 +304,17 @@ fn record_timings(o: &TransferOutcome, out: &mut CaseResult) {
     set(out, "seconds_precompute", t.precompute);
     set(out, "seconds_factorise", t.factorise);
     set(out, "seconds_solve", t.solve);
+}
+
+/// The key point selection options of a method that selects key points.
+fn selection_options(m: &TransferMethod) -> Option<&KeypointOptions> {
+    match m {
+        TransferMethod::Bdt { options, .. } => Some(&options.keypoints),
+        TransferMethod::Sumner { options, .. } | TransferMethod::Cage { options, .. } => {
+            Some(options)
+        }
+        TransferMethod::Identity | TransferMethod::SumnerOracle => None,
+    }
 }
 
 /// `n_keypoints`, `keypoints`, `seconds_selection` and, for an automatic

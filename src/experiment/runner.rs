@@ -24,12 +24,16 @@ use std::time::{Instant, SystemTime, UNIX_EPOCH};
 use rayon::prelude::*;
 
 use super::cases::{generate_cases, Case};
-use super::config::{load_config, LoadedConfig, NamedMethod};
+use super::config::{LoadedConfig, NamedMethod};
 use super::dataset::Collection;
+use super::fingerprint::{fingerprint, Cache};
+use super::load::{load_config_with, LoadOptions};
 use super::lock::FolderLock;
 use super::manifest::{read_manifest, write_manifest, DefectNote, Invocation, Manifest, Shard};
 use super::record::run_method;
-use super::store::{secs, CaseResult, RenderOut, Store, StoredConfig};
+use super::store::{
+    secs, store_key, BindOptions, Bound, CaseResult, RenderOut, Store, StoredConfig,
+};
 use crate::mesh::io::{temp, write_ply};
 use crate::mesh::repair::DefectPolicy;
 use crate::{Error, Result};
@@ -56,6 +60,14 @@ pub struct RunOptions {
     /// the configs' `[dataset] strict` / `repair` (and, for `repair`, the
     /// config hash, as the key would).
     pub defects: DefectPolicy,
+    /// How the configs are read: data root, `--set`, `--sweep`.
+    pub load: LoadOptions,
+    /// `--force`: a folder holding results of another key (config or data)
+    /// is moved aside ([`Store::bind`]) instead of refused.
+    pub force: bool,
+    /// `--retry-failed`: stored failed results of this run's cases are
+    /// moved to `failed/` and computed again.
+    pub retry_failed: bool,
 }
 
 /// What a run of one config did.
@@ -81,7 +93,7 @@ fn unix_now() -> u64 {
 pub fn run_configs(configs: &[PathBuf], opts: &RunOptions) -> Result<Vec<RunSummary>> {
     let mut loaded = configs
         .iter()
-        .map(|c| load_config(c))
+        .map(|c| load_config_with(c, &opts.load))
         .collect::<Result<Vec<_>>>()?;
     for l in &mut loaded {
         if opts.defects.strict {
@@ -250,28 +262,115 @@ impl Progress {
     }
 }
 
+/// What `config.json` of a run of `l` holds: the key config (JSON), its
+/// dataset paths spelled through the data root for the reader, and the
+/// data fingerprint.
+fn stored_config(l: &LoadedConfig, col: &Collection, dir: &Path) -> Result<(StoredConfig, Cache)> {
+    let json = |c: &super::config::Config| {
+        serde_json::to_value(c).map_err(|e| Error::invalid(format!("config to JSON: {e}")))
+    };
+    let key_json = serde_json::to_string(&l.config.key_part())
+        .map_err(|e| Error::invalid(format!("config to JSON: {e}")))?;
+    let mut cache = Cache::load(dir);
+    let data = fingerprint(&col.input_files(), &l.data_root, &mut cache)?;
+    let mut shown = l.config.hashed_part();
+    let spell = |p: &mut PathBuf| {
+        let full = l.resolve_path(p);
+        if let Some(s) = l.data_root.spell(&full) {
+            *p = PathBuf::from(s);
+        } else if let Ok(c) = std::fs::canonicalize(&full) {
+            *p = c;
+        }
+    };
+    if let Some(f) = &mut shown.dataset.faust {
+        spell(&mut f.path);
+    }
+    if let Some(f) = &mut shown.dataset.tosca {
+        spell(&mut f.path);
+    }
+    if let Some(f) = &mut shown.dataset.manifest {
+        spell(&mut f.path);
+    }
+    Ok((
+        StoredConfig {
+            hash: store_key(&key_json, data.as_ref()),
+            config: json(&shown)?,
+            data,
+            adopted_from: None,
+        },
+        cache,
+    ))
+}
+
 fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
     let t0 = Instant::now();
     let started = unix_now();
     let name = &l.config.name;
     let dir = opts.out.join(name);
-    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-    let lock = FolderLock::for_run(&dir, opts.shard, opts.wait)?;
     let store = Store::new(&dir);
-    let hash = l.config.hash();
-    let stored = StoredConfig {
-        hash: hash.clone(),
-        config: serde_json::to_value(l.config.hashed_part())
-            .map_err(|e| Error::invalid(format!("config to JSON: {e}")))?,
-    };
-    store.bind(&stored)?;
 
+    // Everything that can refuse the config is checked before the folder
+    // is made: a config that fails leaves nothing behind.
     let col = Collection::open(l)?;
     let cases = generate_cases(l, &col)?;
     let mine: Vec<&Case> = cases
         .iter()
         .filter(|c| opts.shard.is_none_or(|s| s.contains(c.index)))
         .collect();
+    let strict = l.config.dataset.policy().strict;
+    let new_folder = !store.config_path().exists();
+    if new_folder {
+        // A new folder (every case to compute): values the data make
+        // impossible and, in strict mode, refused meshes stop the run
+        // before the folder exists.
+        super::feasible::check_against_data(l, &col, &mine)?;
+        serve_case_meshes(&col, &mine, strict)?;
+    }
+    let (stored, cache) = stored_config(l, &col, &dir)?;
+    let hash = stored.hash.clone();
+
+    if opts.force && opts.shard.is_some() {
+        // Moving another key's results aside needs the folder alone.
+        let _alone = FolderLock::exclusive_or_stop(&dir, "run --force", opts.wait)?;
+        report_bound(
+            &dir,
+            store.bind(
+                &stored,
+                BindOptions {
+                    force: true,
+                    alone: true,
+                },
+            )?,
+        );
+    }
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let lock = FolderLock::for_run(&dir, opts.shard, opts.wait)?;
+    let bound = store.bind(
+        &stored,
+        BindOptions {
+            force: opts.force,
+            alone: opts.shard.is_none(),
+        },
+    )?;
+    report_bound(&dir, bound);
+    cache.save(&dir)?;
+
+    let mut retried = 0;
+    if opts.retry_failed {
+        for c in &mine {
+            for m in &l.methods {
+                if store.retire_failed(&c.id, &m.name)? {
+                    retried += 1;
+                }
+            }
+        }
+        if retried > 0 && opts.progress {
+            eprintln!(
+                "{name}: {retried} failed result(s) moved to {} to be computed again",
+                dir.join("failed").display()
+            );
+        }
+    }
     let mut work: Vec<(&Case, &NamedMethod)> = Vec::new();
     let mut reused = 0;
     for c in &mine {
@@ -290,10 +389,10 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
     pending.dedup_by_key(|c| c.index);
     // Values the data make impossible: one error before any case runs (a
     // resumed run with nothing to compute loads no mesh).
-    if !pending.is_empty() {
+    if !pending.is_empty() && !new_folder {
         super::feasible::check_against_data(l, &col, &pending)?;
     }
-    serve_case_meshes(&col, &pending, l.config.dataset.policy().strict)?;
+    serve_case_meshes(&col, &pending, strict)?;
 
     let render_cases = l.config.outputs.render_cases();
     let render_poses = l.config.outputs.render_poses();
@@ -471,6 +570,13 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
         name: name.clone(),
         config_file: l.path.display().to_string(),
         config_hash: hash,
+        overrides: l.overrides.clone(),
+        sweep: l.sweep.clone(),
+        data_root: stored
+            .data
+            .as_ref()
+            .map(|_| l.data_root.dir.display().to_string()),
+        data_hash: stored.data.as_ref().map(|d| d.hash.clone()),
         config: serde_json::to_value(&l.config)
             .map_err(|e| Error::invalid(format!("config to JSON: {e}")))?,
         seed: l.config.seed,
@@ -502,6 +608,32 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
         complete,
     };
     Ok(summary)
+}
+
+/// Says what [`Store::bind`] did, when it did more than check the key.
+fn report_bound(dir: &Path, b: Bound) {
+    match b {
+        Bound::Fresh | Bound::Same => {}
+        Bound::Adopted { files } => eprintln!(
+            "{}: results from before data fingerprints, same config: adopted, the current data \
+             ({files} files) recorded in config.json",
+            dir.display()
+        ),
+        Bound::Extended(added) => eprintln!(
+            "{}: the config adds method(s) {}; the stored results are kept",
+            dir.display(),
+            added.join(", ")
+        ),
+        Bound::Rebound => eprintln!(
+            "{}: held no result of its former config; bound to this one",
+            dir.display()
+        ),
+        Bound::Superseded(to) => eprintln!(
+            "{}: results of another config or data moved to {} (--force); starting afresh",
+            dir.display(),
+            to.display()
+        ),
+    }
 }
 
 /// Sum of `seconds_total` per method.
@@ -548,7 +680,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path, plots: bool) -> Result<RunSummary> 
     let _lock = FolderLock::exclusive(out, "merge")?;
     let store = Store::new(out);
     let stored = Store::new(&inputs[0]).read_config()?;
-    store.bind(&stored)?;
+    store.bind(&stored, BindOptions::default())?;
     let mut reused = 0;
     let mut computed = 0;
     for d in inputs {

@@ -1,7 +1,10 @@
 //! The result store of one experiment folder.
 //!
 //! ```text
-//! DIR/config.json          the hashed part of the config + its hash (written first)
+//! DIR/config.json          the store key (`hash`): the config as run and the input
+//!                          files' fingerprint (`data`); written first (see [`StoredConfig`])
+//! DIR/.fingerprints.json   cached hashes of the input files ([`super::fingerprint`])
+//! DIR/failed/<case>/<method>.json  failed results moved aside by `--retry-failed`
 //! DIR/cases/<case>/<method>.json   one finished case × method (atomic, never overwritten)
 //! DIR/meshes/<case>/...    meshes saved for renders: source, deformed, target, truth, and
 //!                          the results of the first method of each group ([outputs] render_*)
@@ -28,6 +31,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use super::fingerprint::DataPrint;
 use crate::mesh::io::temp;
 use crate::{Error, Result};
 
@@ -51,6 +55,8 @@ pub const CASE_COLUMNS: &[&str] = &[
     "n_selection_poses",
     "selection_error",
     "selection_evaluations",
+    "epsilon",
+    "n_candidates",
     "fit_error_unit",
     "procrustes",
     "err_mean_unit",
@@ -296,11 +302,76 @@ pub struct Store {
     pub dir: PathBuf,
 }
 
-/// Content of `DIR/config.json`: the config the stored results belong to.
+/// Content of `DIR/config.json`: what the stored results belong to. `hash`
+/// is the store key: the config's [`crate::experiment::Config::key_part`]
+/// (overrides and sweeps applied, dataset paths left out) and, for data
+/// read from files, the content fingerprint of every input file (`data`).
+/// Folders written before fingerprints have no `data`; `adopted_from` is
+/// their former key when a run adopted one ([`Store::bind`]).
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct StoredConfig {
     pub hash: String,
     pub config: serde_json::Value,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub data: Option<DataPrint>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub adopted_from: Option<String>,
+}
+
+/// The store key of a config (its [`crate::experiment::Config::key_part`]
+/// as JSON, fields in the struct's order) and its data's fingerprint: FNV-1a 64, 16 hex digits. Without
+/// data files it is the hash of the config alone, as folders written
+/// before data fingerprints have it.
+pub fn store_key(key_config_json: &str, data: Option<&DataPrint>) -> String {
+    let mut text = key_config_json.to_string();
+    if let Some(d) = data {
+        text.push_str("\ndata ");
+        text.push_str(&d.hash);
+    }
+    format!("{:016x}", crate::data::fnv1a(text.as_bytes()))
+}
+
+/// `config` (JSON) without the dataset paths: where the data live is not
+/// part of what a result depends on (its content is, see `data`).
+pub fn without_data_paths(config: &serde_json::Value) -> serde_json::Value {
+    let mut c = config.clone();
+    if let Some(d) = c.get_mut("dataset").and_then(|d| d.as_object_mut()) {
+        for (_, spec) in d.iter_mut() {
+            if let Some(o) = spec.as_object_mut() {
+                o.remove("path");
+            }
+        }
+    }
+    c
+}
+
+/// How [`Store::bind`] found the folder.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Bound {
+    /// No `config.json` yet: written.
+    Fresh,
+    /// The same key.
+    Same,
+    /// A folder from before data fingerprints, same config: adopted, the
+    /// current data recorded.
+    Adopted { files: usize },
+    /// Another key but no stored result: rebound to this config.
+    Rebound,
+    /// The same config with these methods added: the stored results are
+    /// kept (a method's results do not depend on the other methods).
+    Extended(Vec<String>),
+    /// Another key, `--force`: its content moved to this folder.
+    Superseded(PathBuf),
+}
+
+/// Options of [`Store::bind`].
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BindOptions {
+    /// Move the results of another key aside and start afresh (`--force`).
+    pub force: bool,
+    /// The caller holds the folder alone (exclusive lock): needed to
+    /// rebind an empty folder or to move results aside.
+    pub alone: bool,
 }
 
 impl Store {
@@ -326,33 +397,182 @@ impl Store {
     }
 
     /// Binds the folder to a config: writes `config.json` if absent, else
-    /// checks that it holds the same hash. A mismatch is an error naming the
-    /// keys that differ.
-    pub fn bind(&self, stored: &StoredConfig) -> Result<()> {
+    /// checks that it holds the same key. A folder written before data
+    /// fingerprints (no `data`) whose config is this one, dataset paths
+    /// aside, is adopted: the current data are recorded. Otherwise another
+    /// key is refused with an error naming the keys and the data files
+    /// that differ, unless nothing is stored yet or `force` (see
+    /// [`BindOptions`]; `force` moves the folder's content to
+    /// `DIR.superseded-<old key>` first: no result is lost).
+    pub fn bind(&self, stored: &StoredConfig, o: BindOptions) -> Result<Bound> {
         let path = self.config_path();
         let bytes = serde_json::to_vec_pretty(stored)
             .map_err(|e| Error::invalid(format!("config to JSON: {e}")))?;
         if write_file(&path, &bytes, false)? {
-            return Ok(());
+            return Ok(Bound::Fresh);
         }
         let old = self.read_config()?;
         if old.hash == stored.hash {
-            return Ok(());
+            return Ok(Bound::Same);
         }
-        let mut diffs = Vec::new();
-        json_diff("", &old.config, &stored.config, &mut diffs);
+        let same_config = without_data_paths(&old.config) == without_data_paths(&stored.config);
+        if same_config && old.data.is_none() && old.adopted_from.is_none() {
+            if let Some(d) = &stored.data {
+                let adopted = StoredConfig {
+                    adopted_from: Some(old.hash.clone()),
+                    ..stored.clone()
+                };
+                let bytes = serde_json::to_vec_pretty(&adopted)
+                    .map_err(|e| Error::invalid(format!("config to JSON: {e}")))?;
+                write_file(&path, &bytes, true)?;
+                return Ok(Bound::Adopted {
+                    files: d.files.len(),
+                });
+            }
+        }
+        if let Some(added) = added_methods(&old.config, &stored.config) {
+            if old.data == stored.data {
+                let extended = StoredConfig {
+                    adopted_from: Some(old.hash.clone()),
+                    ..stored.clone()
+                };
+                let bytes = serde_json::to_vec_pretty(&extended)
+                    .map_err(|e| Error::invalid(format!("config to JSON: {e}")))?;
+                write_file(&path, &bytes, true)?;
+                return Ok(Bound::Extended(added));
+            }
+        }
+        if o.alone && !self.has_results() {
+            write_file(&path, &bytes, true)?;
+            return Ok(Bound::Rebound);
+        }
+        if o.force {
+            if !o.alone {
+                return Err(Error::invalid(format!(
+                    "{}: --force needs the folder to itself",
+                    self.dir.display()
+                )));
+            }
+            let to = self.supersede(&old.hash)?;
+            write_file(&path, &bytes, false)?;
+            return Ok(Bound::Superseded(to));
+        }
+        let mut what = Vec::new();
+        if !same_config {
+            let mut diffs = Vec::new();
+            json_diff(
+                "",
+                &without_data_paths(&old.config),
+                &without_data_paths(&stored.config),
+                &mut diffs,
+            );
+            what.push(format!(
+                "another configuration (differing keys: {})",
+                if diffs.is_empty() {
+                    "none found".to_string()
+                } else {
+                    diffs.join(", ")
+                }
+            ));
+        }
+        match (&old.data, &stored.data) {
+            (Some(then), Some(now)) if then.hash != now.hash => {
+                what.push(format!("other data ({})", now.changes_since(then)));
+            }
+            (Some(_), None) => what.push("data read from files, now none".into()),
+            _ => {}
+        }
+        if what.is_empty() {
+            what.push("another configuration".into());
+        }
         Err(Error::invalid(format!(
-            "{} holds results of another configuration (config hash {} there, {} now; \
-             differing keys: {}). Use another --out folder, or delete that folder to start over",
+            "{} holds results of {} (store key {} there, {} now). Run with --force to move \
+             them to {} and start this folder afresh, or use another --out folder",
             self.dir.display(),
+            what.join(" and of "),
             old.hash,
             stored.hash,
-            if diffs.is_empty() {
-                "none found".to_string()
-            } else {
-                diffs.join(", ")
-            }
+            self.superseded_path(&old.hash).display()
         )))
+    }
+
+    /// Where [`Store::bind`] with `force` moves the results of key `hash`:
+    /// `DIR.superseded-<hash>` (`-2`, `-3`, … if taken).
+    fn superseded_path(&self, hash: &str) -> PathBuf {
+        let name = self
+            .dir
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "results".into());
+        let base = self.dir.with_file_name(format!("{name}.superseded-{hash}"));
+        let mut p = base.clone();
+        let mut k = 2;
+        while p.exists() {
+            p = PathBuf::from(format!("{}-{k}", base.display()));
+            k += 1;
+        }
+        p
+    }
+
+    /// Moves the folder's content (but its lock files and the fingerprint
+    /// cache) to [`Store::superseded_path`]. Call only while holding the
+    /// folder alone.
+    fn supersede(&self, hash: &str) -> Result<PathBuf> {
+        let to = self.superseded_path(hash);
+        std::fs::create_dir_all(&to).map_err(|e| Error::io(&to, e))?;
+        let rd = std::fs::read_dir(&self.dir).map_err(|e| Error::io(&self.dir, e))?;
+        for e in rd {
+            let e = e.map_err(|e| Error::io(&self.dir, e))?;
+            let name = e.file_name().to_string_lossy().into_owned();
+            if name.starts_with(".lock") || name == super::fingerprint::CACHE_FILE {
+                continue;
+            }
+            let dest = to.join(&name);
+            std::fs::rename(e.path(), &dest).map_err(|err| Error::io(e.path(), err))?;
+        }
+        Ok(to)
+    }
+
+    /// Whether any case × method result is stored.
+    pub fn has_results(&self) -> bool {
+        let Ok(rd) = std::fs::read_dir(self.dir.join("cases")) else {
+            return false;
+        };
+        rd.filter_map(|e| e.ok()).any(|d| {
+            std::fs::read_dir(d.path()).is_ok_and(|mut f| {
+                f.any(|x| {
+                    x.is_ok_and(|x| {
+                        let n = x.file_name().to_string_lossy().into_owned();
+                        n.ends_with(".json") && !n.starts_with('.')
+                    })
+                })
+            })
+        })
+    }
+
+    /// Moves a stored failed result (status other than `ok`) of `case_id` ×
+    /// `method` to `DIR/failed/<case>/<method>.json` (`.2.json`, … if
+    /// taken), so that the next run computes it again; returns whether
+    /// there was one. Nothing is deleted.
+    pub fn retire_failed(&self, case_id: &str, method: &str) -> Result<bool> {
+        let path = self.result_path(case_id, method);
+        if !path.is_file() {
+            return Ok(false);
+        }
+        let r = self.get(case_id, method)?;
+        if r.cells.get("status").is_none_or(|s| s == "ok") {
+            return Ok(false);
+        }
+        let dir = self.dir.join("failed").join(case_id);
+        std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+        let mut dest = dir.join(format!("{method}.json"));
+        let mut k = 2;
+        while dest.exists() {
+            dest = dir.join(format!("{method}.{k}.json"));
+            k += 1;
+        }
+        std::fs::rename(&path, &dest).map_err(|e| Error::io(&path, e))?;
+        Ok(true)
     }
 
     pub fn read_config(&self) -> Result<StoredConfig> {
@@ -431,8 +651,58 @@ impl Store {
     }
 }
 
+/// The names of the methods `new` adds to `old` when that is their only
+/// difference: every method of `old` is in `new`, unchanged and in the same
+/// order, and every other key is the same.
+fn added_methods(old: &serde_json::Value, new: &serde_json::Value) -> Option<Vec<String>> {
+    let methods = |v: &serde_json::Value| v.get("methods").and_then(|m| m.as_array()).cloned();
+    let (a, b) = (methods(old)?, methods(new)?);
+    let rest = |v: &serde_json::Value| {
+        let mut v = without_data_paths(v);
+        if let Some(o) = v.as_object_mut() {
+            o.remove("methods");
+        }
+        v
+    };
+    if a.len() >= b.len() || rest(old) != rest(new) {
+        return None;
+    }
+    let mut i = 0;
+    let mut added = Vec::new();
+    for m in &b {
+        if i < a.len() && a[i] == *m {
+            i += 1;
+        } else {
+            added.push(m.get("name")?.as_str()?.to_string());
+        }
+    }
+    (i == a.len()).then_some(added)
+}
+
+/// The name of every element of an array of named objects.
+fn names_of(v: &[serde_json::Value]) -> Option<Vec<&str>> {
+    v.iter().map(|x| x.get("name")?.as_str()).collect()
+}
+
 fn json_diff(prefix: &str, a: &serde_json::Value, b: &serde_json::Value, out: &mut Vec<String>) {
     use serde_json::Value;
+    if let (Value::Array(x), Value::Array(y)) = (a, b) {
+        if let (Some(nx), Some(ny)) = (names_of(x), names_of(y)) {
+            if nx != ny {
+                // Named entries (methods): by name.
+                for (n, u) in nx.iter().zip(x) {
+                    match ny.iter().position(|m| m == n) {
+                        Some(j) => json_diff(&format!("{prefix}.{n}"), u, &y[j], out),
+                        None => out.push(format!("{prefix}.{n} (only there)")),
+                    }
+                }
+                for n in ny.iter().filter(|n| !nx.contains(n)) {
+                    out.push(format!("{prefix}.{n} (only now)"));
+                }
+                return;
+            }
+        }
+    }
     match (a, b) {
         (Value::Object(x), Value::Object(y)) => {
             let mut keys: Vec<&String> = x.keys().chain(y.keys()).collect();
