@@ -27,6 +27,6 @@ pub use cases::{generate_cases, Case};
 pub use config::{load_config, parse_config, Config, LoadedConfig, Method, NamedMethod};
 pub use dataset::Collection;
 pub use manifest::{read_manifest, Manifest, Shard};
-pub use plots::make_plots;
+pub use plots::{make_plots, make_plots_with};
 pub use runner::{merge, run_configs, RunOptions, RunSummary};
 pub use store::{CaseResult, Store, CASE_COLUMNS};

@@ -1397,7 +1397,7 @@ fn draw_bar_chart<DB: DrawingBackend>(
 
 /// Greedy word wrap of `text` into lines at most `width` pixels wide at
 /// `size` (a single word wider than that stays on its own line).
-fn wrap(text: &str, size: f64, width: f64) -> Vec<String> {
+pub(crate) fn wrap(text: &str, size: f64, width: f64) -> Vec<String> {
     // Pieces and the separator before each: words split at spaces, and
     // words too wide for a line also after their hyphens and underscores
     // ("auto-handle-relative" → "auto-", "handle-", "relative").

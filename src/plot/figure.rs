@@ -1,5 +1,6 @@
 //! Figure composition: panels side by side (wrapping onto further rows
-//! after [`RenderOptions::max_per_row`] panels), a title and caption on top,
+//! after [`RenderOptions::max_per_row`] panels), a title and caption on top
+//! (the caption word-wrapped to the panels' width),
 //! labels under the panels, and one colour bar per distinct scalar range on
 //! the right. The mesh raster comes from [`super::render`]; all text, the
 //! colour bars' frames and ticks are drawn by plotters with the bundled font
@@ -14,6 +15,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::FontTransform;
 
 use super::axis::{format_tick, Axis};
+use super::charts::wrap;
 use super::font::{self, ensure_font, GlyphBackend};
 use super::output::{
     base64, encode_png, with_suffix, write_bytes_atomic, write_png_atomic, Formats, Image,
@@ -57,6 +59,8 @@ struct Layout {
     /// the panels and colour bars).
     x0: u32,
     header: u32,
+    /// The caption, word-wrapped to the figure's width.
+    caption: Vec<String>,
     /// Height below each row of panels (their labels).
     footer: u32,
     bars: Vec<(Bar, u32, u32)>, // (bar, x of its column, column width)
@@ -113,14 +117,6 @@ fn layout(fig: &Figure, opts: &RenderOptions) -> Result<Layout> {
     }
     .max(1);
     let rows = n.div_ceil(cols).max(1);
-    let mut header = 12u32;
-    if !fig.title.is_empty() {
-        header += 40;
-    }
-    if fig.caption.as_deref().is_some_and(|c| !c.is_empty()) {
-        header += 30;
-    }
-    header += 4;
     let footer = if fig.panels.iter().any(|p| !p.label.is_empty()) {
         48
     } else {
@@ -141,11 +137,26 @@ fn layout(fig: &Figure, opts: &RenderOptions) -> Result<Layout> {
     }
     let content: u32 = cols * panel.0 + bars.iter().map(bar_column_width).sum::<u32>();
     let title_w = font::text_size(&fig.title, TITLE_PX, true).0;
-    let caption_w = fig
-        .caption
-        .as_deref()
-        .map_or(0, |c| font::text_size(c, CAPTION_PX, false).0);
+    // The caption wraps to the panels' (or the title's) width.
+    let caption: Vec<String> = match fig.caption.as_deref().filter(|c| !c.is_empty()) {
+        Some(c) => wrap(
+            c,
+            CAPTION_PX,
+            content.max(title_w + 40).saturating_sub(40) as f64,
+        ),
+        None => Vec::new(),
+    };
+    let caption_w = caption
+        .iter()
+        .map(|l| font::text_size(l, CAPTION_PX, false).0)
+        .max()
+        .unwrap_or(0);
     let need = title_w.max(caption_w) + 40;
+    let mut header = 12u32;
+    if !fig.title.is_empty() {
+        header += 40;
+    }
+    header += 30 * caption.len() as u32 + 4;
     let x0 = need.saturating_sub(content) / 2;
     let mut x = x0 + cols * panel.0;
     let mut cols_of_bars = Vec::new();
@@ -163,6 +174,7 @@ fn layout(fig: &Figure, opts: &RenderOptions) -> Result<Layout> {
         cols,
         x0,
         header,
+        caption,
         footer,
         width: x.max(need),
         height: header + rows * (panel.1 + footer),
@@ -254,13 +266,14 @@ fn draw_overlay<DB: DrawingBackend>(
         .map_err(de)?;
         y += 40;
     }
-    if let Some(c) = fig.caption.as_deref().filter(|c| !c.is_empty()) {
+    for line in &lay.caption {
         root.draw_text(
-            c,
+            line,
             &font::text(CAPTION_PX, RGBColor(70, 70, 70)).pos(Pos::new(HPos::Center, VPos::Top)),
             (w as i32 / 2, y),
         )
         .map_err(de)?;
+        y += 30;
     }
     let (pw, ph) = lay.panel;
     for (i, p) in fig.panels.iter().enumerate() {
