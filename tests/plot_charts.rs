@@ -1,12 +1,12 @@
 //! Line charts, bar charts and tables: files written atomically as valid
-//! PNG / SVG carrying the titles and legend labels; bad input is an error
-//! naming the file and the series, never a panic or a partial file.
+//! PNG / SVG / PDF carrying the titles and legend labels; bad input is an
+//! error naming the file and the series, never a panic or a partial file.
 
 use std::path::{Path, PathBuf};
 
 use deformlab::plot::{
-    bar_chart_image, line_chart_image, save_bar_chart, save_line_chart, save_table, series_style,
-    BarChart, LineChart, Series, Table, CHART_SIZE,
+    bar_chart_image, line_chart_image, save_bar_chart, save_line_chart, save_line_chart_as,
+    save_table, series_style, BarChart, Formats, LineChart, Series, Table, CHART_SIZE,
 };
 
 /// Width and height from a PNG's IHDR chunk, after checking the signature.
@@ -33,6 +33,40 @@ fn svg_text(path: &Path) -> String {
         path.display()
     );
     s
+}
+
+/// Checks a PDF file: the header, one page of `size` pixels at 96 per inch
+/// and the bundled font embedded; returns its bytes as (lossy) text.
+fn pdf_check(path: &Path, size: (u32, u32)) -> String {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    assert!(bytes.starts_with(b"%PDF-"), "{}: not a PDF", path.display());
+    let text = String::from_utf8_lossy(&bytes).into_owned();
+    assert_eq!(
+        text.matches("/Type /Page\n").count()
+            + text.matches("/Type /Page\r").count()
+            + text.matches("/Type /Page ").count()
+            + text.matches("/Type /Page/").count()
+            + text.matches("/Type /Page>").count(),
+        1,
+        "{}: expected one page",
+        path.display()
+    );
+    let pt = |px: u32| {
+        let v = px as f64 * 0.75;
+        if v.fract() == 0.0 {
+            format!("{v:.0}")
+        } else {
+            format!("{v}")
+        }
+    };
+    let media = format!("/MediaBox [0 0 {} {}]", pt(size.0), pt(size.1));
+    assert!(text.contains(&media), "{}: no {media}", path.display());
+    assert!(
+        text.contains("DejaVuSans"),
+        "{}: font not embedded",
+        path.display()
+    );
+    text
 }
 
 /// Files in `dir` (names only, sorted).
@@ -72,8 +106,10 @@ fn line_chart_writes_png_and_svg() {
     let stem = dir.path().join("plots/sub/fig14.v2");
     save_line_chart(&three_series(), &stem).unwrap();
     let sub = dir.path().join("plots/sub");
-    assert_eq!(listing(&sub), vec!["fig14.v2.png", "fig14.v2.svg"]);
+    let all = vec!["fig14.v2.pdf", "fig14.v2.png", "fig14.v2.svg"];
+    assert_eq!(listing(&sub), all);
     assert_eq!(png_size(&sub.join("fig14.v2.png")), CHART_SIZE);
+    pdf_check(&sub.join("fig14.v2.pdf"), CHART_SIZE);
     let svg = svg_text(&sub.join("fig14.v2.svg"));
     for text in [
         "Cumulative error",
@@ -88,7 +124,52 @@ fn line_chart_writes_png_and_svg() {
     }
     // Overwriting (regenerating) leaves no temporary files behind.
     save_line_chart(&three_series(), &stem).unwrap();
-    assert_eq!(listing(&sub), vec!["fig14.v2.png", "fig14.v2.svg"]);
+    assert_eq!(listing(&sub), all);
+}
+
+#[test]
+fn formats_choose_the_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let stem = dir.path().join("only");
+    let pdf = Formats::from_names(&["pdf"]).unwrap();
+    save_line_chart_as(&three_series(), &stem, pdf).unwrap();
+    assert_eq!(listing(dir.path()), vec!["only.pdf"]);
+    pdf_check(&dir.path().join("only.pdf"), CHART_SIZE);
+    let both = Formats::from_names(&["png", "svg"]).unwrap();
+    save_line_chart_as(&three_series(), &stem, both).unwrap();
+    assert_eq!(
+        listing(dir.path()),
+        vec!["only.pdf", "only.png", "only.svg"]
+    );
+    assert!(Formats::from_names(&["jpeg"])
+        .unwrap_err()
+        .contains("\"jpeg\""));
+    assert!(Formats::from_names::<&str>(&[]).is_err());
+}
+
+#[test]
+fn a_chart_without_title_and_caption_has_no_header_text() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut chart = three_series();
+    chart.title.clear();
+    chart.caption = None;
+    let stem = dir.path().join("bare");
+    save_line_chart(&chart, &stem).unwrap();
+    let svg = svg_text(&dir.path().join("bare.svg"));
+    assert!(!svg.contains("Cumulative error") && !svg.contains("three methods"));
+    assert!(svg.contains("alpha") && svg.contains("fraction of vertices"));
+    // The black title text is gone from the top centre of the image.
+    let black_in_header = |img: &deformlab::plot::Image| {
+        let mut n = 0;
+        for y in 10..44 {
+            for x in img.width * 2 / 5..img.width * 3 / 5 {
+                n += usize::from(img.pixel(x, y).unwrap().iter().all(|&c| c < 60));
+            }
+        }
+        n
+    };
+    assert!(black_in_header(&line_chart_image(&three_series()).unwrap()) > 100);
+    assert_eq!(black_in_header(&line_chart_image(&chart).unwrap()), 0);
 }
 
 #[test]

@@ -7,8 +7,9 @@ use std::path::Path;
 
 use deformlab::mesh::primitives::{grid, icosphere};
 use deformlab::plot::{
-    colormap, keypoint_color, render_figure, render_mesh, save_figure, Camera, ColorMap, Coloring,
-    Figure, Image, Panel, RenderOptions, Up, View,
+    colormap, figure_svg, keypoint_color, render_figure, render_mesh, save_figure, save_figure_as,
+    Camera, ColorMap, Coloring, Figure, Formats, Image, Panel, RenderOptions, Up, View,
+    DEFAULT_MAX_PER_ROW,
 };
 use deformlab::{Mesh, Point};
 
@@ -576,4 +577,124 @@ fn shared_scale_keeps_relative_sizes() {
     // One scale: the sphere of twice the radius covers four times the area.
     let (a, b) = areas(true);
     assert!((b as f64 / a as f64 - 4.0).abs() < 0.15, "{a} vs {b}");
+}
+
+/// `n` labelled sphere panels of 100 × 120 pixels.
+fn spheres(n: usize) -> Figure {
+    Figure {
+        title: "wrapped".into(),
+        panels: (0..n)
+            .map(|i| Panel {
+                label: format!("p{i}"),
+                ..panel(icosphere(2))
+            })
+            .collect(),
+        panel_size: (100, 120),
+        ..Default::default()
+    }
+}
+
+/// Rows of panels: the vertical runs of image rows with drawn pixels in
+/// the first panel's column (below the header).
+fn panel_rows(img: &Image, header: u32) -> usize {
+    let mut runs = 0;
+    let mut inside = false;
+    for y in header..img.height {
+        let drawn = (0..100).any(|x| img.pixel(x, y).unwrap() != WHITE);
+        if drawn && !inside {
+            runs += 1;
+        }
+        inside = drawn;
+    }
+    runs
+}
+
+#[test]
+fn render_grids_wrap_after_max_per_row_panels() {
+    // Twelve panels: the default wraps them into two rows of six.
+    let fig = spheres(12);
+    let one_row = RenderOptions {
+        max_per_row: 0,
+        ..exact()
+    };
+    let wide = render_figure(&fig, &one_row, "test").unwrap();
+    let wrapped = render_figure(&fig, &exact(), "test").unwrap();
+    assert_eq!(DEFAULT_MAX_PER_ROW, 6);
+    assert!(wide.width >= 1200, "{}", wide.width);
+    assert!(
+        wrapped.width <= 6 * 100 + 40,
+        "{}×{}",
+        wrapped.width,
+        wrapped.height
+    );
+    assert!(wrapped.height > wide.height + 120);
+    // Five a row: three rows (5 + 5 + 2), the labels of the last row below
+    // its panels; the last row's third slot is empty.
+    let five = RenderOptions {
+        max_per_row: 5,
+        ..exact()
+    };
+    let img = render_figure(&fig, &five, "test").unwrap();
+    assert!(img.width <= 5 * 100 + 40, "{}", img.width);
+    // Panels, then their labels: two runs per row in the first column.
+    assert_eq!(panel_rows(&img, 60), 6);
+    let last_row_top = img.height - (120 + 48) + 10;
+    let drawn = |x0: u32| {
+        (last_row_top..last_row_top + 100)
+            .flat_map(|y| (x0..x0 + 100).map(move |x| (x, y)))
+            .filter(|&(x, y)| img.pixel(x, y).unwrap() != WHITE)
+            .count()
+    };
+    assert!(drawn(100) > 1000, "second panel of the last row missing");
+    assert_eq!(drawn(200), 0, "a third panel in the last row");
+}
+
+#[test]
+fn figures_as_svg_and_pdf() {
+    let fig = synthetic_figure();
+    let dir = tempfile::tempdir().unwrap();
+    let stem = dir.path().join("fig");
+    let all = Formats::from_names(&["png", "svg", "pdf"]).unwrap();
+    save_figure_as(&fig, &RenderOptions::default(), &stem, all).unwrap();
+    let png = render_figure(&fig, &RenderOptions::default(), "test").unwrap();
+    let svg = std::fs::read_to_string(dir.path().join("fig.svg")).unwrap();
+    // The raster under vector text: the labels are SVG text elements.
+    assert!(svg.contains("data:image/png;base64,"));
+    let texts: Vec<String> = svg
+        .split("<text")
+        .skip(1)
+        .map(|t| {
+            let inner = &t[t.find('>').unwrap() + 1..];
+            inner[..inner.find("</text>").unwrap()].trim().to_string()
+        })
+        .collect();
+    for t in ["Synthetic", "three poses", "pose 2", "displacement"] {
+        assert!(
+            texts.iter().any(|x| x == t),
+            "no text element {t:?}: {texts:?}"
+        );
+    }
+    assert!(svg.contains(&format!(
+        "width=\"{}\" height=\"{}\"",
+        png.width, png.height
+    )));
+    let pdf = std::fs::read(dir.path().join("fig.pdf")).unwrap();
+    assert!(pdf.starts_with(b"%PDF-"));
+    let text = String::from_utf8_lossy(&pdf);
+    assert!(text.contains("/Subtype /Image"), "no raster in the PDF");
+    assert!(text.contains("DejaVuSans"), "no embedded font");
+    // No title, no caption: neither text remains.
+    let bare = Figure {
+        title: String::new(),
+        caption: None,
+        ..fig.clone()
+    };
+    let svg = figure_svg(&bare, &RenderOptions::default(), "test").unwrap();
+    assert!(!svg.contains("Synthetic") && !svg.contains("three poses"));
+    assert!(svg.contains("pose 2"));
+    // PNG only by default.
+    let only = dir.path().join("only");
+    save_figure(&fig, &only).unwrap();
+    assert!(dir.path().join("only.png").is_file());
+    assert!(!dir.path().join("only.svg").exists() && !dir.path().join("only.pdf").exists());
 }

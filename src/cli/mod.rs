@@ -138,7 +138,8 @@ pub enum Command {
     Run(run::RunArgs),
     /// Join the folders of sharded runs of one config.
     Merge(merge::MergeArgs),
-    /// Regenerate the plots of results folders from their CSVs and meshes.
+    /// Regenerate the plots of results folders from their CSVs and meshes
+    /// (with --config, as a config file's [outputs] now say).
     Plot(plot::PlotArgs),
 }
 

@@ -35,6 +35,7 @@
 //! [[methods]]
 //! name = "auto"
 //! kind = "bdt"                  # bdt | bdt_random | bdt_extremity | clustering
+//! label = "BDT (automatic)"     # legend / table name (output only, not hashed)
 //! max_keypoints = 8             # any pipeline option overrides [defaults]
 //!
 //! [[methods]]
@@ -53,8 +54,15 @@
 //!
 //! [outputs]                     # output-only: not part of the config hash
 //! render_cases = 1
+//! title = false                 # no plot titles (or a text: the title prefix)
+//! subtitle = false              # no provenance line under the titles
+//! formats = ["png", "pdf"]      # charts and renders (default: charts png, svg, pdf; renders png)
+//! up = "z"                      # render up axis (default: "z" for [dataset.tosca], else "y")
+//! max_per_row = 6               # render panels per row (0: one row)
+//! mesh_format = "obj"           # meshes/ as OBJ (default "ply", with a per-vertex `error`)
 //! [[outputs.plots]]
 //! kind = "cumulative"
+//! title = true                  # this plot keeps its title; `subtitle`, `formats` likewise
 //! [[outputs.plots]]               # one figure, one panel per curve, shared legend
 //! kind = "curve_panels"
 //! curves = ["cumulative_area", "correspondence_euclidean_area"]
@@ -483,6 +491,11 @@ pipeline_struct! {
         /// Plot group (default: the name): plots aggregate methods of a group.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         pub group: Option<String>,
+        /// Display name in legends and tables (spaces allowed; default: the
+        /// group name). Output only: not part of the config hash. A group
+        /// is shown by the first `label` among its methods.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub label: Option<String>,
         /// Key points (random, extremity).
         #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<1, 1000>::de")]
         pub count: Option<usize>,
@@ -867,9 +880,20 @@ impl MetricsSpec {
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct OutputSpec {
-    /// Title prefix of the plots (default: the experiment name).
+    /// Titles of the plots: a text (the title prefix), `true` (default: the
+    /// experiment name as prefix) or `false` (no titles; a plot's own
+    /// `title` still wins).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub title: Option<String>,
+    pub title: Option<TitleSpec>,
+    /// The provenance line under each title (data set, cases; default
+    /// true); `false` leaves it out (a plot's own `subtitle` still wins).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub subtitle: Option<bool>,
+    /// Files of every chart and render: some of `"png"`, `"svg"`, `"pdf"`
+    /// (default: charts PNG + SVG + PDF, renders PNG;
+    /// [`crate::plot::Formats::CHARTS`], [`crate::plot::Formats::RENDERS`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub formats: Option<Vec<FileFormat>>,
     /// Cases (first in case order) whose meshes are saved for renders (default 1).
     #[serde(
         default,
@@ -884,13 +908,31 @@ pub struct OutputSpec {
         deserialize_with = "Int::<0, 1000>::de"
     )]
     pub render_poses: Option<usize>,
-    /// Render camera `[yaw, pitch]` in degrees (default `[0, 0]`: looking along −z, y up).
+    /// Render camera `[yaw, pitch]` in degrees (default: the data set's,
+    /// [`DatasetSpec::default_camera`]).
     #[serde(
         default,
         skip_serializing_if = "Option::is_none",
         deserialize_with = "Real::<Degrees>::de_pair"
     )]
     pub camera: Option<[f64; 2]>,
+    /// The model axis drawn pointing up in renders: `"y"` or `"z"`
+    /// (default: the data set's, [`DatasetSpec::default_camera`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub up: Option<UpAxis>,
+    /// Render panels per row at most; more wrap onto further rows (0: one
+    /// row; default [`crate::plot::DEFAULT_MAX_PER_ROW`]).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Int::<0, 1000>::de"
+    )]
+    pub max_per_row: Option<usize>,
+    /// Format of the saved meshes (`meshes/`): `"ply"` (default; result
+    /// meshes carry a per-vertex `error` property) or `"obj"` (the errors
+    /// in a companion `<name>.error.txt`, one number per vertex).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mesh_format: Option<MeshFormat>,
     /// Plots made by `run` and `plot`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub plots: Vec<PlotSpec>,
@@ -902,6 +944,123 @@ impl OutputSpec {
     }
     pub fn render_poses(&self) -> usize {
         self.render_poses.unwrap_or(2)
+    }
+    pub fn mesh_format(&self) -> MeshFormat {
+        self.mesh_format.unwrap_or_default()
+    }
+    /// Panels per row of the renders (0: no limit).
+    pub fn max_per_row(&self) -> usize {
+        self.max_per_row
+            .unwrap_or(crate::plot::RenderOptions::default().max_per_row)
+    }
+
+    /// The files of a chart made by `plot`: its own `formats`, else
+    /// `[outputs] formats`, else [`crate::plot::Formats::CHARTS`].
+    pub fn chart_formats(&self, plot: &PlotSpec) -> crate::plot::Formats {
+        formats_of(plot.formats.as_ref().or(self.formats.as_ref()))
+            .unwrap_or(crate::plot::Formats::CHARTS)
+    }
+
+    /// The files of a render made by `plot`: its own `formats`, else
+    /// `[outputs] formats`, else [`crate::plot::Formats::RENDERS`].
+    pub fn render_formats(&self, plot: &PlotSpec) -> crate::plot::Formats {
+        formats_of(plot.formats.as_ref().or(self.formats.as_ref()))
+            .unwrap_or(crate::plot::Formats::RENDERS)
+    }
+
+    /// The render camera for `dataset`: [`DatasetSpec::default_camera`]
+    /// with `camera` and `up` applied.
+    pub fn camera(&self, dataset: &DatasetSpec) -> crate::plot::Camera {
+        let d = dataset.default_camera();
+        let (yaw_deg, pitch_deg) = match self.camera {
+            Some([yaw, pitch]) => (yaw, pitch),
+            None => (d.yaw_deg, d.pitch_deg),
+        };
+        crate::plot::Camera {
+            yaw_deg,
+            pitch_deg,
+            up: match self.up {
+                Some(UpAxis::Y) => crate::plot::Up::Y,
+                Some(UpAxis::Z) => crate::plot::Up::Z,
+                None => d.up,
+            },
+        }
+    }
+}
+
+fn formats_of(v: Option<&Vec<FileFormat>>) -> Option<crate::plot::Formats> {
+    let names: Vec<&str> = v?.iter().map(|f| f.name()).collect();
+    crate::plot::Formats::from_names(&names).ok()
+}
+
+impl DatasetSpec {
+    /// The render camera of the data set when `[outputs]` sets none:
+    /// TOSCA-style folders (`[dataset.tosca]`: TOSCA, the cactus) are
+    /// z-up, seen three-quarters from the front right and above
+    /// ([`crate::plot::Camera::TOSCA`]); every other data set is y-up,
+    /// seen from the front ([`crate::plot::Camera::FRONT`]).
+    pub fn default_camera(&self) -> crate::plot::Camera {
+        if self.tosca.is_some() {
+            crate::plot::Camera::TOSCA
+        } else {
+            crate::plot::Camera::FRONT
+        }
+    }
+}
+
+/// A title setting: a text, or whether the default title is drawn.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(untagged, expecting = "a title (text), true or false")]
+pub enum TitleSpec {
+    Show(bool),
+    Text(String),
+}
+
+/// A file format of the charts and renders.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum FileFormat {
+    Png,
+    Svg,
+    Pdf,
+}
+
+impl FileFormat {
+    pub fn name(self) -> &'static str {
+        match self {
+            FileFormat::Png => "png",
+            FileFormat::Svg => "svg",
+            FileFormat::Pdf => "pdf",
+        }
+    }
+}
+
+/// The model axis drawn pointing up (`[outputs] up`).
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum UpAxis {
+    Y,
+    Z,
+}
+
+/// Format of the meshes saved under `meshes/` (`[outputs] mesh_format`).
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum MeshFormat {
+    /// Binary PLY; result meshes with a float `error` property per vertex.
+    #[default]
+    Ply,
+    /// Wavefront OBJ; the errors in a companion `<name>.error.txt`.
+    Obj,
+}
+
+impl MeshFormat {
+    /// The mesh file format.
+    pub fn format(self) -> crate::mesh::io::Format {
+        match self {
+            MeshFormat::Ply => crate::mesh::io::Format::Ply,
+            MeshFormat::Obj => crate::mesh::io::Format::Obj,
+        }
     }
 }
 
@@ -944,9 +1103,17 @@ pub struct PlotSpec {
     /// File stem under plots/ (default: the kind's name).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub file: Option<String>,
-    /// Title (default from the kind and the experiment).
+    /// Title: a text, `false` (none) or `true` (the default title, from
+    /// the kind and the experiment, even when `[outputs] title = false`).
+    /// Default: as `[outputs] title` says.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub title: Option<String>,
+    pub title: Option<TitleSpec>,
+    /// The provenance line under the title (default: `[outputs] subtitle`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub subtitle: Option<bool>,
+    /// Files written (default: `[outputs] formats`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub formats: Option<Vec<FileFormat>>,
     /// cases.csv columns plotted (bars, line).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub metrics: Vec<String>,
@@ -1001,8 +1168,10 @@ pub struct PlotSpec {
     /// value is this one (default: all of the row's results).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lead_from: Option<String>,
-    /// Pivot and curve panels: display names (pivot: of column values and
-    /// column names; curve panels: of curves and method groups).
+    /// Display names, overriding the methods' `label`s: of method groups
+    /// (legends, categories, table rows, panel captions), of metric columns
+    /// (table headers), of column values (pivot, `by` series) and of curves
+    /// (curve panels).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub labels: BTreeMap<String, String>,
 }
@@ -1079,6 +1248,30 @@ pub(super) fn valid_name(s: &str) -> bool {
         && s.bytes()
             .all(|b| b.is_ascii_alphanumeric() || matches!(b, b'-' | b'_' | b'.'))
         && !s.starts_with('.')
+}
+
+/// A display name: 1 to 200 characters, no control characters.
+fn valid_label(s: &str) -> bool {
+    !s.trim().is_empty() && s.chars().count() <= 200 && !s.chars().any(char::is_control)
+}
+
+/// A `formats` list: not empty, no format twice.
+fn check_formats(c: &LoadedConfig, key: &str, f: &[FileFormat]) -> Result<()> {
+    if f.is_empty() {
+        return Err(bad(
+            &c.path,
+            key,
+            "expected at least one of \"png\", \"svg\", \"pdf\"",
+        ));
+    }
+    if let Some(d) = f.iter().enumerate().find(|(i, x)| f[..*i].contains(x)) {
+        return Err(bad(
+            &c.path,
+            key,
+            format!("{:?} is listed twice", d.1.name()),
+        ));
+    }
+    Ok(())
 }
 
 /// The key path (`methods[1].n_candidates`) and line of a byte offset in a
@@ -1311,6 +1504,29 @@ pub(super) fn check_dataset(c: &LoadedConfig) -> Result<()> {
 }
 
 pub(super) fn check_outputs(c: &LoadedConfig) -> Result<()> {
+    if let Some(f) = &c.config.outputs.formats {
+        check_formats(c, "outputs.formats", f)?;
+    }
+    if let Some(TitleSpec::Text(t)) = &c.config.outputs.title {
+        if !valid_label(t) {
+            return Err(bad(
+                &c.path,
+                "outputs.title",
+                "expected a title of 1 to 200 characters without control characters, or false",
+            ));
+        }
+    }
+    for (i, m) in c.config.methods.iter().enumerate() {
+        if let Some(l) = &m.label {
+            if !valid_label(l) {
+                return Err(bad(
+                    &c.path,
+                    format!("methods[{i}].label"),
+                    "expected a display name of 1 to 200 characters without control characters",
+                ));
+            }
+        }
+    }
     for (i, p) in c.config.outputs.plots.iter().enumerate() {
         let columns = p.metrics.iter().chain(p.x.iter()).chain(p.by.iter());
         let pivot = p
@@ -1431,12 +1647,15 @@ fn check_plot_kind(c: &LoadedConfig, i: usize, p: &PlotSpec) -> Result<()> {
             ));
         }
     }
-    if !p.labels.is_empty() && !pivot && p.kind != PlotKind::CurvePanels {
+    if let Some((k, _)) = p.labels.iter().find(|(_, v)| !valid_label(v)) {
         return Err(bad(
             &c.path,
-            key("labels"),
-            "only pivot tables and curve panels take `labels`",
+            key(&format!("labels.{k}")),
+            "expected a display name of 1 to 200 characters without control characters",
         ));
+    }
+    if let Some(f) = &p.formats {
+        check_formats(c, &key("formats"), f)?;
     }
     Ok(())
 }
@@ -1740,7 +1959,8 @@ fn target_points(p: &PipelineSpec, bdt: &BdtOptions) -> TargetPoints {
 
 impl Config {
     /// The config without its output-only fields (`description`,
-    /// `outputs`): what the stored results depend on.
+    /// `outputs`, the methods' `label`s): what the stored results depend
+    /// on.
     pub fn hashed_part(&self) -> Config {
         let d = DefectPolicy::default();
         Config {
@@ -1752,6 +1972,14 @@ impl Config {
                 repair: self.dataset.repair.filter(|&r| r != d.repair),
                 ..self.dataset.clone()
             },
+            methods: self
+                .methods
+                .iter()
+                .map(|m| MethodEntry {
+                    label: None,
+                    ..m.clone()
+                })
+                .collect(),
             ..self.clone()
         }
     }

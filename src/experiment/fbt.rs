@@ -53,7 +53,7 @@ use rand_chacha::ChaCha8Rng;
 use super::cases::Case;
 use super::config::{FbtSpec, FbtTask, MetricsSpec};
 use super::dataset::Collection;
-use super::store::{num, secs, CaseResult, Curve, RenderOut};
+use super::store::{num, secs, CaseResult, Curve, MeshOut, RenderOut};
 use crate::data::fnv1a;
 use crate::data::partial::feature_points;
 use crate::eval::{
@@ -61,7 +61,6 @@ use crate::eval::{
     geodesic_error_curve, vertex_errors, ErrorScale,
 };
 use crate::mesh::compact::{SolvablePart, DEFAULT_MIN_PART_FRACTION};
-use crate::mesh::io::write_ply;
 use crate::mesh::set::ConnectivityReport;
 use crate::mesh::Mesh;
 use crate::methods::completion::{CompletionProblem, CompletionSolver, FbtOptions, FeatureOptions};
@@ -212,15 +211,6 @@ fn class_parts(col: &Collection, fc: &FbtCase, o: &FbtOptions) -> Result<Vec<usi
         .clone())
 }
 
-fn save(dir: &std::path::Path, name: &str, mesh: &Mesh) -> Result<()> {
-    let path = dir.join(name);
-    if path.exists() {
-        return Ok(());
-    }
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    write_ply(&path, mesh)
-}
-
 /// Runs an FBT method on a case, filling `out` (see the module docs).
 pub fn run(
     col: &Collection,
@@ -267,12 +257,12 @@ pub fn run(
             DictionaryKind::OneExample => format!("one example, size of LBO m = {m}"),
         },
     );
-    let render_dir = render.map(|(r, name)| r.dir.join(name));
+    let render_dir = render.map(|(r, name)| r.method(name));
     let pose = case.poses[0].clone();
     match spec.task {
         FbtTask::Projection => projection(&fc, spec, &o, out),
         FbtTask::Timing => timing(&fc, &o, seed, out),
-        FbtTask::Scale => scale(&fc, &o, seed, out, render_dir.as_deref(), &pose),
+        FbtTask::Scale => scale(&fc, &o, seed, out, render_dir.as_ref(), &pose),
         FbtTask::Completion => completion(
             &fc,
             &class_parts(col, &fc, &o)?,
@@ -282,11 +272,11 @@ pub fn run(
             case,
             metrics_spec,
             out,
-            render_dir.as_deref(),
+            render_dir.as_ref(),
             &pose,
         ),
         FbtTask::Permutation => permutation(&fc, &o, seed, out),
-        FbtTask::Interpolation => interpolation(&fc, &o, seed, out, render_dir.as_deref(), &pose),
+        FbtTask::Interpolation => interpolation(&fc, &o, seed, out, render_dir.as_ref(), &pose),
     }
 }
 
@@ -467,7 +457,7 @@ fn scale(
     o: &FbtOptions,
     seed: u64,
     out: &mut CaseResult,
-    render: Option<&std::path::Path>,
+    render: Option<&MeshOut>,
     pose: &str,
 ) -> Result<()> {
     let s = o.scale;
@@ -518,12 +508,14 @@ fn scale(
         area,
     )?;
     if let Some(dir) = render {
-        save(
-            dir,
-            &format!("result_{pose}.ply"),
+        // Per vertex: the relative distortion (√area units) behind
+        // `rel_distortion_*`.
+        dir.save(
+            &format!("result_{pose}"),
             &fc.examples[0].with_vertices(reg.positions)?,
+            Some(&d),
         )?;
-        save(dir, &format!("scaled_target_{pose}.ply"), &target)?;
+        dir.save(&format!("scaled_target_{pose}"), &target, None)?;
     }
     Ok(())
 }
@@ -543,7 +535,7 @@ fn completion(
     case: &Case,
     metrics_spec: &MetricsSpec,
     out: &mut CaseResult,
-    render: Option<&std::path::Path>,
+    render: Option<&MeshOut>,
     pose: &str,
 ) -> Result<()> {
     // Partial target: depends on the case only (same for every method).
@@ -650,12 +642,14 @@ fn completion(
     out.curves
         .push(Curve::new("correspondence_euclidean_area", &grid, &curve));
     if let Some(dir) = render {
-        save(
-            dir,
-            &format!("result_{pose}.ply"),
+        // Per vertex: the relative distortion (√area units) behind
+        // `rel_distortion_*`.
+        dir.save(
+            &format!("result_{pose}"),
             &problem.reference().with_vertices(r.positions.clone())?,
+            Some(&d),
         )?;
-        save(dir, &format!("partial_{pose}.ply"), &problem.partial().mesh)?;
+        dir.save(&format!("partial_{pose}"), &problem.partial().mesh, None)?;
     }
     Ok(())
 }
@@ -711,7 +705,7 @@ fn interpolation(
     o: &FbtOptions,
     seed: u64,
     out: &mut CaseResult,
-    render: Option<&std::path::Path>,
+    render: Option<&MeshOut>,
     pose: &str,
 ) -> Result<()> {
     let other = fc.rest.first().ok_or_else(|| {
@@ -774,10 +768,10 @@ fn interpolation(
     out.curves
         .push(Curve::new("interpolation_arap_linear", &ss, &linear));
     if let Some(dir) = render {
-        save(
-            dir,
-            &format!("result_{pose}.ply"),
+        dir.save(
+            &format!("result_{pose}"),
             &reference.with_vertices(mid)?,
+            None,
         )?;
     }
     Ok(())

@@ -36,6 +36,6 @@ pub use load::{
 };
 pub use lock::FolderLock;
 pub use manifest::{read_manifest, Manifest, Shard};
-pub use plots::make_plots;
+pub use plots::{make_plots, make_plots_with};
 pub use runner::{merge, run_configs, RunOptions, RunSummary};
 pub use store::{CaseResult, Store, CASE_COLUMNS};

@@ -37,15 +37,15 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::config::{Config, PlotKind, PlotSpec};
+use super::config::{Config, LoadedConfig, PlotKind, PlotSpec, TitleSpec};
 use super::manifest::read_manifest;
-use super::store::describe;
+use super::store::{describe, MeshOut};
 use crate::eval::{vertex_errors, ErrorScale};
 use crate::mesh::io::read_mesh;
 use crate::mesh::Mesh;
 use crate::plot::{
-    save_bar_chart, save_figure, save_line_chart, save_line_panels, save_table, BarChart, Camera,
-    Coloring, Figure, LineChart, LinePanels, Panel, Series, Table,
+    save_bar_chart_as, save_figure_as, save_line_chart_as, save_line_panels_as, save_table_as,
+    BarChart, Coloring, Figure, LineChart, LinePanels, Panel, RenderOptions, Series, Table,
 };
 use crate::{Error, Result};
 
@@ -147,11 +147,30 @@ pub fn column_label(c: &str) -> String {
     }
 }
 
+/// The display name of a cases.csv column in a plot: its `labels` entry,
+/// else [`column_label`].
+fn metric_label(spec: &PlotSpec, c: &str) -> String {
+    spec.labels
+        .get(c)
+        .cloned()
+        .unwrap_or_else(|| column_label(c))
+}
+
 struct Ctx {
     dir: PathBuf,
     config: Config,
+    /// Prefix of the default titles.
     title: String,
+    /// Whether plots without a `title` of their own have one.
+    titles: bool,
+    /// Whether plots without a `subtitle` of their own have one.
+    subtitles: bool,
+    /// The provenance line (data set, cases).
     caption: String,
+    /// Display names of the method groups (the methods' `label`s).
+    group_labels: BTreeMap<String, String>,
+    /// Display names of the methods (`label`, else their group's).
+    method_labels: BTreeMap<String, String>,
     rows: Vec<Row>,
     curves: Vec<Row>,
     /// Groups in config order, with their methods.
@@ -179,6 +198,70 @@ impl Ctx {
             .join(spec.file.clone().unwrap_or_else(|| default.to_string()))
     }
 
+    /// The title of a plot: `default()` unless the plot's `title` or
+    /// `[outputs] title` says otherwise ("" for none).
+    fn title(&self, spec: &PlotSpec, default: impl FnOnce() -> String) -> String {
+        match &spec.title {
+            Some(TitleSpec::Text(t)) => t.clone(),
+            Some(TitleSpec::Show(false)) => String::new(),
+            Some(TitleSpec::Show(true)) => default(),
+            None if self.titles => default(),
+            None => String::new(),
+        }
+    }
+
+    /// The title text of a data file (Markdown, LaTeX comment): the plot's
+    /// own title, else `default()`, whether or not figures show titles.
+    fn title_text(&self, spec: &PlotSpec, default: impl FnOnce() -> String) -> String {
+        match &spec.title {
+            Some(TitleSpec::Text(t)) => t.clone(),
+            _ => default(),
+        }
+    }
+
+    /// The subtitle of a plot: `text` unless the plot's `subtitle` or
+    /// `[outputs] subtitle` is false.
+    fn subtitle(&self, spec: &PlotSpec, text: String) -> Option<String> {
+        spec.subtitle.unwrap_or(self.subtitles).then_some(text)
+    }
+
+    /// The display name of a method group: the plot's `labels`, else the
+    /// group's method `label`, else `fallback` (the group name, or the
+    /// floor's legend entry).
+    fn group_label(&self, spec: &PlotSpec, group: &str, fallback: &str) -> String {
+        spec.labels
+            .get(group)
+            .or_else(|| self.group_labels.get(group))
+            .cloned()
+            .unwrap_or_else(|| fallback.to_string())
+    }
+
+    /// The display name of a method: the plot's `labels` (by method, then
+    /// by group), else the method's (or its group's) `label`, else its name.
+    fn method_label(&self, spec: &PlotSpec, method: &str) -> String {
+        if let Some(l) = spec.labels.get(method) {
+            return l.clone();
+        }
+        let group = self
+            .groups
+            .iter()
+            .find(|(_, ms)| ms.iter().any(|m| m == method))
+            .map(|(g, _)| g.as_str());
+        group
+            .and_then(|g| spec.labels.get(g))
+            .or_else(|| self.method_labels.get(method))
+            .cloned()
+            .unwrap_or_else(|| method.to_string())
+    }
+
+    /// The render options of the figures (panels per row).
+    fn render_options(&self) -> RenderOptions {
+        RenderOptions {
+            max_per_row: self.config.outputs.max_per_row(),
+            ..RenderOptions::default()
+        }
+    }
+
     fn warn(&mut self, what: &str, r: Result<()>) {
         if let Err(e) = r {
             self.warnings
@@ -191,9 +274,44 @@ impl Ctx {
 /// (plots that could not be made). Errors only if the folder's manifest or
 /// tables cannot be read.
 pub fn make_plots(dir: &Path) -> Result<Vec<String>> {
+    make_plots_with(dir, None)
+}
+
+/// [`make_plots`], with the output settings (`[outputs]`, `description`,
+/// the methods' `label`s) of `config` instead of those recorded in the
+/// folder's manifest: edits to a config's plots apply without recomputing.
+/// Errors, naming the keys, when `config` differs from the folder's in
+/// anything else (it would describe other results).
+pub fn make_plots_with(dir: &Path, config: Option<&LoadedConfig>) -> Result<Vec<String>> {
     let manifest = read_manifest(dir)?;
-    let config: Config = serde_json::from_value(manifest.config.clone())
+    let recorded: Config = serde_json::from_value(manifest.config.clone())
         .map_err(|e| Error::parse(dir.join("manifest.json"), "config", e.to_string()))?;
+    let config = match config {
+        None => recorded,
+        Some(l) => {
+            let (a, b) = (recorded.hashed_part(), l.config.hashed_part());
+            if a != b {
+                let (ja, jb) = (
+                    serde_json::to_value(&a).unwrap_or_default(),
+                    serde_json::to_value(&b).unwrap_or_default(),
+                );
+                let mut keys = Vec::new();
+                super::store::json_diff("", &ja, &jb, &mut keys);
+                return Err(Error::invalid(format!(
+                    "{}: its results are not those of {}: they differ in {} (only \
+                     [outputs], description and the methods' labels may change)",
+                    dir.display(),
+                    l.path.display(),
+                    if keys.is_empty() {
+                        "the config".to_string()
+                    } else {
+                        keys.join(", ")
+                    }
+                )));
+            }
+            l.config.clone()
+        }
+    };
     let rows = read_csv(&dir.join("cases.csv"))?;
     let curves = read_csv(&dir.join("curves.csv"))?;
     let mut groups: Vec<(String, Vec<String>)> = Vec::new();
@@ -229,18 +347,40 @@ pub fn make_plots(dir: &Path) -> Result<Vec<String>> {
         .filter_map(|r| r.get("case"))
         .collect::<std::collections::BTreeSet<_>>()
         .len();
-    let title = config
-        .outputs
-        .title
-        .clone()
-        .unwrap_or_else(|| config.name.clone());
+    let title = match &config.outputs.title {
+        Some(TitleSpec::Text(t)) => t.clone(),
+        _ => config.name.clone(),
+    };
+    let titles = config.outputs.title != Some(TitleSpec::Show(false));
+    let subtitles = config.outputs.subtitle.unwrap_or(true);
     let caption = format!("{}; {} case(s)", manifest.dataset, n_cases);
+    let mut group_labels: BTreeMap<String, String> = BTreeMap::new();
+    let mut method_labels: BTreeMap<String, String> = BTreeMap::new();
+    for m in &config.methods {
+        let g = m.group.clone().unwrap_or_else(|| m.name.clone());
+        if let Some(l) = &m.label {
+            group_labels.entry(g).or_insert_with(|| l.clone());
+            method_labels.insert(m.name.clone(), l.clone());
+        }
+    }
+    for m in &config.methods {
+        let g = m.group.clone().unwrap_or_else(|| m.name.clone());
+        if let Some(l) = group_labels.get(&g) {
+            method_labels
+                .entry(m.name.clone())
+                .or_insert_with(|| l.clone());
+        }
+    }
     std::fs::create_dir_all(dir.join("plots")).map_err(|e| Error::io(dir.join("plots"), e))?;
     let mut ctx = Ctx {
         dir: dir.to_path_buf(),
         config,
         title,
+        titles,
+        subtitles,
         caption,
+        group_labels,
+        method_labels,
         rows,
         curves,
         groups,
@@ -299,6 +439,8 @@ pub(super) fn default_plots(c: &Config) -> Vec<PlotSpec> {
         kind,
         file: None,
         title: None,
+        subtitle: None,
+        formats: None,
         metrics: metrics.iter().map(|s| s.to_string()).collect(),
         methods: Vec::new(),
         x: None,
@@ -390,7 +532,7 @@ fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             mut series,
             floor,
             cases: curve_cases,
-        } = mean_curves(ctx, curve);
+        } = mean_curves(ctx, spec, curve);
         for sr in &mut series {
             sr.y.iter_mut().for_each(|y| *y *= 100.0);
         }
@@ -400,29 +542,35 @@ fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             }
             continue;
         }
-        let chart = LineChart {
-            title: match (&spec.title, suffix) {
-                (Some(t), "") => t.clone(),
-                (Some(t), _) => format!("{t} ({})", suffix.trim_start_matches('_')),
-                (None, "_distortion") => format!("{}: cumulative area distortion", ctx.title),
-                (None, "_correspondence") => {
+        let title = match (&spec.title, suffix) {
+            (Some(TitleSpec::Text(t)), "") => t.clone(),
+            (Some(TitleSpec::Text(t)), _) => format!("{t} ({})", suffix.trim_start_matches('_')),
+            _ => ctx.title(spec, || match suffix {
+                "_distortion" => format!("{}: cumulative area distortion", ctx.title),
+                "_correspondence" => {
                     format!("{}: geodesic correspondence error (Kim et al.)", ctx.title)
                 }
-                (None, "_correspondence_euclidean") => {
+                "_correspondence_euclidean" => {
                     format!("{}: Euclidean correspondence error", ctx.title)
                 }
-                (None, _) => format!("{}: cumulative error to ground truth", ctx.title),
-            },
-            caption: Some(format!(
-                "{}; mean curve over the {} case(s) with {}",
-                ctx.caption,
-                curve_cases.len(),
-                if suffix == "_distortion" || suffix.starts_with("_correspondence") {
-                    "results"
-                } else {
-                    "ground truth"
-                }
-            )),
+                _ => format!("{}: cumulative error to ground truth", ctx.title),
+            }),
+        };
+        let chart = LineChart {
+            title,
+            caption: ctx.subtitle(
+                spec,
+                format!(
+                    "{}; mean curve over the {} case(s) with {}",
+                    ctx.caption,
+                    curve_cases.len(),
+                    if suffix == "_distortion" || suffix.starts_with("_correspondence") {
+                        "results"
+                    } else {
+                        "ground truth"
+                    }
+                ),
+            ),
             x_label: x_label.into(),
             y_label: y_label.into(),
             series,
@@ -439,7 +587,7 @@ fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_default()
         ));
-        save_line_chart(&chart, &stem)?;
+        save_line_chart_as(&chart, &stem, ctx.config.outputs.chart_formats(spec))?;
     }
     Ok(())
 }
@@ -467,8 +615,8 @@ fn is_curve(r: &Row, wanted: &str) -> bool {
 }
 
 /// The mean over the case × method curves `curve` of each shown group, in
-/// group order, sorted by x.
-fn mean_curves(ctx: &Ctx, curve: &str) -> MeanCurves {
+/// group order, sorted by x; labelled with the groups' display names.
+fn mean_curves(ctx: &Ctx, spec: &PlotSpec, curve: &str) -> MeanCurves {
     let mut series = Vec::new();
     let mut floor = None;
     let mut cases = std::collections::BTreeSet::new();
@@ -498,11 +646,7 @@ fn mean_curves(ctx: &Ctx, curve: &str) -> MeanCurves {
             floor = Some(series.len());
         }
         series.push(Series {
-            label: if is_floor {
-                ctx.floor_label.to_string()
-            } else {
-                g.clone()
-            },
+            label: ctx.group_label(spec, g, if is_floor { ctx.floor_label } else { g }),
             x: pts.iter().map(|p| p.0).collect(),
             y: pts.iter().map(|p| p.1).collect(),
         });
@@ -561,7 +705,7 @@ fn curve_panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
     let mut missing = Vec::new();
     let mut cases = std::collections::BTreeSet::new();
     for curve in &spec.curves {
-        let mc = mean_curves(ctx, curve);
+        let mc = mean_curves(ctx, spec, curve);
         if mc.series.is_empty() {
             missing.push(curve.as_str());
             continue;
@@ -570,9 +714,6 @@ fn curve_panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         let (title, x_label, y_label, share) = curve_info(curve);
         let mut series = mc.series;
         for sr in &mut series {
-            if let Some(l) = spec.labels.get(&sr.label) {
-                sr.label = l.clone();
-            }
             if share {
                 sr.y.iter_mut().for_each(|y| *y *= 100.0);
             }
@@ -602,22 +743,26 @@ fn curve_panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
     }
     let names: Vec<&str> = panels.iter().map(|p| p.title.as_str()).collect();
     let fig = LinePanels {
-        title: spec
-            .title
-            .clone()
-            .unwrap_or_else(|| format!("{}: {}", ctx.title, names.join(", "))),
-        caption: Some(format!(
-            "{}; mean curve per method over {}",
-            ctx.caption,
-            if cases.len() == n_cases {
-                "the cases".to_string()
-            } else {
-                format!("the {} case(s) with results", cases.len())
-            }
-        )),
+        title: ctx.title(spec, || format!("{}: {}", ctx.title, names.join(", "))),
+        caption: ctx.subtitle(
+            spec,
+            format!(
+                "{}; mean curve per method over {}",
+                ctx.caption,
+                if cases.len() == n_cases {
+                    "the cases".to_string()
+                } else {
+                    format!("the {} case(s) with results", cases.len())
+                }
+            ),
+        ),
         panels,
     };
-    save_line_panels(&fig, &ctx.stem(spec, "curve_panels"))?;
+    save_line_panels_as(
+        &fig,
+        &ctx.stem(spec, "curve_panels"),
+        ctx.config.outputs.chart_formats(spec),
+    )?;
     if !missing.is_empty() {
         return Err(Error::invalid(format!(
             "no {} curves in curves.csv; drawn without them",
@@ -717,7 +862,12 @@ fn pivot(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
     let mut shown: Vec<Vec<String>> = Vec::new();
     let mut counts: Vec<usize> = Vec::new();
     for rv in &row_keys {
-        let mut line = vec![rv.clone()];
+        let shown_rv = match rk.as_str() {
+            "group" => ctx.group_label(spec, rv, rv),
+            "method" => ctx.method_label(spec, rv),
+            _ => label(rv, rv.clone()),
+        };
+        let mut line = vec![shown_rv];
         let mut rec = vec![rv.clone()];
         for l in &spec.lead {
             match leads.get(&(rv.clone(), l.clone())) {
@@ -767,10 +917,9 @@ fn pivot(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         "{}; cells: mean of {what} over cases, {n_note}",
         ctx.caption
     );
-    let title = spec
-        .title
-        .clone()
-        .unwrap_or_else(|| format!("{}: {metric} by {rk} and {ck}", ctx.title));
+    let default_title = || format!("{}: {metric} by {rk} and {ck}", ctx.title);
+    let md_title = ctx.title_text(spec, default_title);
+    let title = ctx.title(spec, default_title);
     let mut md = format!(
         "| {} |\n|{}\n",
         header.join(" | "),
@@ -783,21 +932,29 @@ fn pivot(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         (Some(v), false) => format!(" {} from the {ck} = {v} results.", spec.lead.join(", ")),
         _ => String::new(),
     };
-    md.push_str(&format!("\n{title}. {caption}.{lead_note}\n"));
+    md.push_str(&format!("\n{md_title}. {caption}.{lead_note}\n"));
     let stem = ctx.stem(spec, "pivot");
     super::store::write_file(&stem.with_extension("md"), md.as_bytes(), true)?;
+    let tex = latex_table(
+        &header,
+        &shown,
+        1,
+        &format!("{md_title}. {caption}.{lead_note}"),
+    );
+    super::store::write_file(&stem.with_extension("tex"), tex.as_bytes(), true)?;
     let bytes = csv_out
         .into_inner()
         .map_err(|e| Error::invalid(format!("pivot CSV: {e}")))?;
     super::store::write_file(&stem.with_extension("csv"), &bytes, true)?;
-    save_table(
+    save_table_as(
         &Table {
             title,
-            caption: Some(caption),
+            caption: ctx.subtitle(spec, caption),
             columns: header,
             rows: shown,
         },
         &stem,
+        ctx.config.outputs.chart_formats(spec),
     )
 }
 
@@ -841,13 +998,13 @@ fn bars(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             .iter()
             .map(|g| group_stats(ctx, g, m).unwrap_or((0.0, 0.0)))
             .collect();
-        series.push((column_label(m), st.iter().map(|s| s.0).collect()));
+        series.push((metric_label(spec, m), st.iter().map(|s| s.0).collect()));
         errors.push(st.iter().map(|s| s.1).collect());
     }
     let y_label = if let Some(l) = &spec.y_label {
         l.clone()
     } else if spec.metrics.len() == 1 {
-        column_label(&spec.metrics[0])
+        metric_label(spec, &spec.metrics[0])
     } else if spec.metrics.iter().all(|m| m.ends_with("_unit")) {
         "error (unit-sphere units)".into()
     } else if spec
@@ -862,22 +1019,25 @@ fn bars(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         "value".into()
     };
     let chart = BarChart {
-        title: spec
-            .title
-            .clone()
-            .unwrap_or_else(|| format!("{}: {}", ctx.title, spec.metrics.join(", "))),
-        caption: Some(format!(
-            "{}; bars: mean over cases, whiskers: ±1 std",
-            ctx.caption
-        )),
+        title: ctx.title(spec, || {
+            format!("{}: {}", ctx.title, spec.metrics.join(", "))
+        }),
+        caption: ctx.subtitle(
+            spec,
+            format!("{}; bars: mean over cases, whiskers: ±1 std", ctx.caption),
+        ),
         y_label,
-        categories: groups.iter().map(|g| g.to_string()).collect(),
+        categories: groups.iter().map(|g| ctx.group_label(spec, g, g)).collect(),
         series,
         errors: Some(errors),
         log_y: spec.log_y.unwrap_or(false),
     };
     let default = format!("bars_{}", spec.metrics.join("_"));
-    save_bar_chart(&chart, &ctx.stem(spec, &default))
+    save_bar_chart_as(
+        &chart,
+        &ctx.stem(spec, &default),
+        ctx.config.outputs.chart_formats(spec),
+    )
 }
 
 fn trace(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
@@ -907,7 +1067,7 @@ fn trace(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             .collect();
         let n_methods: usize = ctx.groups.iter().map(|(_, ms)| ms.len()).sum();
         let label = if n_methods > 1 {
-            format!("{m}, {c}")
+            format!("{}, {c}", ctx.method_label(spec, m))
         } else {
             c.clone()
         };
@@ -936,14 +1096,13 @@ fn trace(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         .map(|n| format!("{n:?}").to_lowercase())
         .unwrap_or_else(|| "paper".into());
     let chart = LineChart {
-        title: spec
-            .title
-            .clone()
-            .unwrap_or_else(|| format!("{}: selection error vs number of key points", ctx.title)),
-        caption: Some(format!(
-            "{}; stage 1 of Algorithm 1, one line per case",
-            ctx.caption
-        )),
+        title: ctx.title(spec, || {
+            format!("{}: selection error vs number of key points", ctx.title)
+        }),
+        caption: ctx.subtitle(
+            spec,
+            format!("{}; stage 1 of Algorithm 1, one line per case", ctx.caption),
+        ),
         x_label: "number of key points".into(),
         y_label: format!("deformation error Ê ({norm} norm, unit-sphere units)"),
         series,
@@ -952,7 +1111,11 @@ fn trace(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         floor: None,
         ..Default::default()
     };
-    save_line_chart(&chart, &ctx.stem(spec, "trace"))
+    save_line_chart_as(
+        &chart,
+        &ctx.stem(spec, "trace"),
+        ctx.config.outputs.chart_formats(spec),
+    )
 }
 
 fn line(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
@@ -989,10 +1152,15 @@ fn line(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                 .collect();
             pts.sort_by(|a, b| a.0.total_cmp(&b.0));
             if !pts.is_empty() {
+                let value = spec
+                    .labels
+                    .get(v)
+                    .cloned()
+                    .unwrap_or_else(|| v.replace('_', " "));
                 let label = match (spec.metrics.len(), v.is_empty()) {
-                    (_, true) => column_label(m),
-                    (1, false) => v.replace('_', " "),
-                    _ => format!("{} ({})", column_label(m), v.replace('_', " ")),
+                    (_, true) => metric_label(spec, m),
+                    (1, false) => value,
+                    _ => format!("{} ({value})", metric_label(spec, m)),
                 };
                 series.push(Series {
                     label,
@@ -1008,7 +1176,7 @@ fn line(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
     let y_label = if let Some(l) = &spec.y_label {
         l.clone()
     } else if spec.metrics.len() == 1 {
-        column_label(&spec.metrics[0])
+        metric_label(spec, &spec.metrics[0])
     } else if spec
         .metrics
         .iter()
@@ -1019,12 +1187,11 @@ fn line(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         "error (unit-sphere units)".into()
     };
     let chart = LineChart {
-        title: spec
-            .title
-            .clone()
-            .unwrap_or_else(|| format!("{}: {} vs {}", ctx.title, spec.metrics.join(", "), x)),
-        caption: Some(format!("{}; mean over cases per method", ctx.caption)),
-        x_label: column_label(&x),
+        title: ctx.title(spec, || {
+            format!("{}: {} vs {}", ctx.title, spec.metrics.join(", "), x)
+        }),
+        caption: ctx.subtitle(spec, format!("{}; mean over cases per method", ctx.caption)),
+        x_label: metric_label(spec, &x),
         y_label,
         series,
         log_y: spec.log_y.unwrap_or(false),
@@ -1032,7 +1199,11 @@ fn line(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         floor: None,
         ..Default::default()
     };
-    save_line_chart(&chart, &ctx.stem(spec, &format!("line_{x}")))
+    save_line_chart_as(
+        &chart,
+        &ctx.stem(spec, &format!("line_{x}")),
+        ctx.config.outputs.chart_formats(spec),
+    )
 }
 
 fn timing(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
@@ -1069,7 +1240,8 @@ fn timing(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             x.map_or("–".to_string(), |v| format!("{:.*}", d, v * k))
         };
         md.push_str(&format!(
-            "| {g} | {} | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            ctx.group_label(spec, g, g),
             fmt(s("n_vertices"), 1.0, 0),
             fmt(s("n_keypoints"), 1.0, 1),
             fmt(s("seconds_selection"), 1.0, 3),
@@ -1093,22 +1265,20 @@ fn timing(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         }
     }
     let chart = BarChart {
-        title: spec
-            .title
-            .clone()
-            .unwrap_or_else(|| format!("{}: running times", ctx.title)),
-        caption: Some(format!("{}; mean over cases", ctx.caption)),
+        title: ctx.title(spec, || format!("{}: running times", ctx.title)),
+        caption: ctx.subtitle(spec, format!("{}; mean over cases", ctx.caption)),
         y_label: "time (s, log scale)".into(),
-        categories: groups.iter().map(|g| g.to_string()).collect(),
+        categories: groups.iter().map(|g| ctx.group_label(spec, g, g)).collect(),
         series,
         errors: None,
         log_y: true,
     };
-    save_bar_chart(&chart, &stem)
+    save_bar_chart_as(&chart, &stem, ctx.config.outputs.chart_formats(spec))
 }
 
-/// A Markdown + CSV table of group means: one row per group (and per
-/// value of the `x` column when set, e.g. the class), one column per metric.
+/// A Markdown + CSV + LaTeX table of group means: one row per group (and
+/// per value of the `x` column when set, e.g. the class), one column per
+/// metric.
 fn table(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
     if spec.metrics.is_empty() {
         return Err(Error::invalid("tables need `metrics`"));
@@ -1132,14 +1302,13 @@ fn table(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
     let head_x = spec.x.clone().map(|x| vec![x]).unwrap_or_default();
     let header: Vec<String> = ["method".to_string()]
         .into_iter()
-        .chain(head_x.iter().cloned())
-        .chain(spec.metrics.iter().map(|m| column_label(m)))
+        .chain(
+            head_x
+                .iter()
+                .map(|x| spec.labels.get(x).unwrap_or(x).clone()),
+        )
+        .chain(spec.metrics.iter().map(|m| metric_label(spec, m)))
         .collect();
-    let mut md = format!(
-        "| {} |\n|{}\n",
-        header.join(" | "),
-        "---|".repeat(header.len())
-    );
     let mut csv_out = csv::Writer::from_writer(Vec::new());
     let csv_head: Vec<String> = ["method".to_string()]
         .into_iter()
@@ -1150,6 +1319,7 @@ fn table(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
     csv_out
         .write_record(&csv_head)
         .map_err(|e| Error::invalid(format!("table CSV: {e}")))?;
+    let mut shown: Vec<Vec<String>> = Vec::new();
     for (g, v) in &keys {
         let rows: Vec<&Row> = ctx
             .rows_of_group(g)
@@ -1173,7 +1343,7 @@ fn table(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                 }
             })
             .collect();
-        let mut line: Vec<String> = vec![g.clone()];
+        let mut line: Vec<String> = vec![ctx.group_label(spec, g, g)];
         if spec.x.is_some() {
             line.push(v.clone());
         }
@@ -1182,7 +1352,7 @@ fn table(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                 .iter()
                 .map(|c| c.parse::<f64>().map_or("–".to_string(), super::store::num)),
         );
-        md.push_str(&format!("| {} |\n", line.join(" | ")));
+        shown.push(line);
         let mut rec: Vec<String> = vec![g.clone()];
         if spec.x.is_some() {
             rec.push(v.clone());
@@ -1193,17 +1363,105 @@ fn table(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             .write_record(&rec)
             .map_err(|e| Error::invalid(format!("table CSV: {e}")))?;
     }
-    md.push_str(&format!(
-        "\n{}; means over cases.\n",
-        spec.title.clone().unwrap_or_else(|| ctx.caption.clone())
-    ));
+    let note = format!(
+        "{}; means over cases.",
+        ctx.title_text(spec, || ctx.caption.clone())
+    );
+    let mut md = format!(
+        "| {} |\n|{}\n",
+        header.join(" | "),
+        "---|".repeat(header.len())
+    );
+    for line in &shown {
+        md.push_str(&format!("| {} |\n", line.join(" | ")));
+    }
+    md.push_str(&format!("\n{note}\n"));
     let stem = ctx.stem(spec, "table");
     super::store::write_file(&stem.with_extension("md"), md.as_bytes(), true)?;
+    let tex = latex_table(&header, &shown, 1 + head_x.len(), &note);
+    super::store::write_file(&stem.with_extension("tex"), tex.as_bytes(), true)?;
     let bytes = csv_out
         .into_inner()
         .map_err(|e| Error::invalid(format!("table CSV: {e}")))?;
     super::store::write_file(&stem.with_extension("csv"), &bytes, true)?;
     Ok(())
+}
+
+/// A LaTeX `tabular` with booktabs rules (`\toprule`, `\midrule`,
+/// `\bottomrule`; needs `\usepackage{booktabs}`) of a header and rows of
+/// cells as the Markdown table shows them: the first `text_columns`
+/// columns left-aligned, the others right-aligned, every cell escaped
+/// ([`latex_escape`]); `note` (title and caption) as a comment above it,
+/// for the document's own `\caption`.
+fn latex_table(header: &[String], rows: &[Vec<String>], text_columns: usize, note: &str) -> String {
+    let n = header.len();
+    let spec: String = (0..n)
+        .map(|i| if i < text_columns { 'l' } else { 'r' })
+        .collect();
+    let line = |cells: &[String]| {
+        let c: Vec<String> = cells.iter().map(|c| latex_escape(c)).collect();
+        format!("{} \\\\\n", c.join(" & "))
+    };
+    let mut out = String::new();
+    for l in note.lines() {
+        out.push_str(&format!("% {l}\n"));
+    }
+    out.push_str(&format!("\\begin{{tabular}}{{{spec}}}\n\\toprule\n"));
+    out.push_str(&line(header));
+    out.push_str("\\midrule\n");
+    for r in rows {
+        out.push_str(&line(r));
+    }
+    out.push_str("\\bottomrule\n\\end{tabular}\n");
+    out
+}
+
+/// `text` for LaTeX: the ten special characters escaped, the dashes and
+/// the mathematical symbols of the labels (√, ′, −, ×, ±, Greek letters,
+/// …) as LaTeX commands; other characters are kept (UTF-8 input).
+pub fn latex_escape(text: &str) -> String {
+    let mut out = String::with_capacity(text.len() + 8);
+    for ch in text.chars() {
+        let s: &str = match ch {
+            '\\' => "\\textbackslash{}",
+            '&' => "\\&",
+            '%' => "\\%",
+            '$' => "\\$",
+            '#' => "\\#",
+            '_' => "\\_",
+            '{' => "\\{",
+            '}' => "\\}",
+            '~' => "\\textasciitilde{}",
+            '^' => "\\textasciicircum{}",
+            '<' => "\\textless{}",
+            '>' => "\\textgreater{}",
+            '|' => "\\textbar{}",
+            '–' => "--",
+            '—' => "---",
+            '−' => "\\ensuremath{-}",
+            '×' => "\\ensuremath{\\times}",
+            '±' => "\\ensuremath{\\pm}",
+            '·' => "\\ensuremath{\\cdot}",
+            '√' => "\\ensuremath{\\surd}",
+            '′' => "\\ensuremath{'}",
+            '→' => "\\ensuremath{\\to}",
+            '≤' => "\\ensuremath{\\le}",
+            '≥' => "\\ensuremath{\\ge}",
+            'α' => "\\ensuremath{\\alpha}",
+            'β' => "\\ensuremath{\\beta}",
+            'γ' => "\\ensuremath{\\gamma}",
+            'ε' => "\\ensuremath{\\varepsilon}",
+            'λ' => "\\ensuremath{\\lambda}",
+            'σ' => "\\ensuremath{\\sigma}",
+            'Ê' => "\\^{E}",
+            _ => {
+                out.push(ch);
+                continue;
+            }
+        };
+        out.push_str(s);
+    }
+    out
 }
 
 fn keypoints_of(row: &Row) -> Vec<(usize, usize)> {
@@ -1229,21 +1487,6 @@ fn keypoint_column(row: &Row, column: &str) -> Vec<(usize, usize)> {
                 .collect()
         })
         .unwrap_or_default()
-}
-
-#[allow(clippy::field_reassign_with_default)]
-fn camera(c: &Config) -> Camera {
-    match c.outputs.camera {
-        Some([yaw, pitch]) => {
-            // Field by field: the camera may gain fields (e.g. the up axis),
-            // which keep their defaults.
-            let mut cam = Camera::default();
-            cam.yaw_deg = yaw;
-            cam.pitch_deg = pitch;
-            cam
-        }
-        None => Camera::default(),
-    }
 }
 
 /// Case ids (in case order) whose meshes were saved.
@@ -1282,8 +1525,8 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             .get("poses")
             .map(|p| p.split(';').map(String::from).collect())
             .unwrap_or_default();
-        let source = read_mesh(&mdir.join("source.ply"))?;
-        let target = read_mesh(&mdir.join("target.ply"))?;
+        let source = read_mesh(&saved(&mdir, "source")?)?;
+        let target = read_mesh(&saved(&mdir, "target")?)?;
         // One representative method per group (the first with saved meshes).
         let mut shown: Vec<(&String, &Row)> = Vec::new();
         for (g, methods) in &ctx.groups {
@@ -1300,16 +1543,16 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             continue;
         }
         for pose in &poses {
-            let deformed_path = mdir.join(format!("deformed_{pose}.ply"));
-            if !deformed_path.exists() {
+            let Some(deformed_path) = MeshOut::find(&mdir, &format!("deformed_{pose}")) else {
                 continue;
-            }
+            };
             let deformed = read_mesh(&deformed_path)?;
             let reference: Option<Mesh> = if fits {
                 Some(deformed.clone())
             } else {
-                let p = mdir.join(format!("truth_{pose}.ply"));
-                p.exists().then(|| read_mesh(&p)).transpose()?
+                MeshOut::find(&mdir, &format!("truth_{pose}"))
+                    .map(|p| read_mesh(&p))
+                    .transpose()?
             };
             let scale = ErrorScale::of_reference(if fits { &source } else { &target })?.unit_sphere;
             let kp0 = keypoints_of(shown[0].1);
@@ -1321,8 +1564,7 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                     .all(|(_, r)| r.get("kind").map(String::as_str) == Some("fbt"));
             let mut ps = if registration {
                 let partial = shown.iter().find_map(|(_, r)| {
-                    let p = mdir.join(&r["method"]).join(format!("partial_{pose}.ply"));
-                    p.exists().then_some(p)
+                    MeshOut::find(&mdir.join(&r["method"]), &format!("partial_{pose}"))
                 });
                 let (label, mesh) = match partial {
                     Some(p) => (format!("partial target (pose {pose})"), read_mesh(&p)?),
@@ -1367,15 +1609,14 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             for (g, r) in &shown {
                 let m = &r["method"];
                 let file = if fits { "fit" } else { "result" };
-                let p = mdir.join(m).join(format!("{file}_{pose}.ply"));
-                if !p.exists() {
+                let Some(p) = MeshOut::find(&mdir.join(m), &format!("{file}_{pose}")) else {
                     continue;
-                }
-                let reg = mdir.join(m).join("registered.ply");
-                if !fits && registered.is_empty() && reg.exists() {
+                };
+                let reg = MeshOut::find(&mdir.join(m), "registered");
+                if let (false, true, Some(reg)) = (fits, registered.is_empty(), reg) {
                     // Automatic target correspondence: A registered onto B.
                     registered.push(Panel {
-                        label: format!("A→B, {g}"),
+                        label: format!("A→B, {}", ctx.group_label(spec, g, g)),
                         mesh: read_mesh(&reg)?,
                         coloring: Coloring::Plain,
                         keypoints: keypoints_of(r),
@@ -1394,7 +1635,7 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                 } else {
                     target_keypoints_of(r)
                 };
-                results.push((g.to_string(), mesh, err, kp));
+                results.push((ctx.group_label(spec, g, g), mesh, err, kp));
             }
             if results.is_empty() {
                 continue;
@@ -1432,7 +1673,7 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                 });
             }
             let fig = Figure {
-                title: spec.title.clone().unwrap_or_else(|| {
+                title: ctx.title(spec, || {
                     if fits {
                         format!(
                             "{}: deformed source per method (case {id}, pose {pose})",
@@ -1447,25 +1688,29 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                         format!("{}: transfer results (case {id}, pose {pose})", ctx.title)
                     }
                 }),
-                caption: Some(if registration {
-                    format!(
-                        "{}; right: the template registered by each method",
-                        ctx.caption
-                    )
-                } else {
-                    format!(
-                        "{}; {}; spheres: key points (on A: those of {}); colour: per-vertex error",
-                        ctx.caption,
-                        if fits {
-                            "right: the deformed source D_S(A) of each method"
-                        } else {
-                            "right: the transferred B′ of each method"
-                        },
-                        shown[0].0
-                    )
-                }),
+                caption: ctx.subtitle(
+                    spec,
+                    if registration {
+                        format!(
+                            "{}; right: the template registered by each method",
+                            ctx.caption
+                        )
+                    } else {
+                        format!(
+                            "{}; {}; spheres: key points (on A: those of {}); colour: \
+                             per-vertex error",
+                            ctx.caption,
+                            if fits {
+                                "right: the deformed source D_S(A) of each method"
+                            } else {
+                                "right: the transferred B′ of each method"
+                            },
+                            ctx.group_label(spec, shown[0].0, shown[0].0)
+                        )
+                    },
+                ),
                 panels: ps,
-                camera: camera(&ctx.config),
+                camera: ctx.config.outputs.camera(&ctx.config.dataset),
                 panel_size: (260, 360),
             };
             let default = if fits { "fits" } else { "panels" };
@@ -1476,10 +1721,26 @@ fn panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                     .map(|s| s.to_string_lossy().into_owned())
                     .unwrap_or_default()
             ));
-            save_figure(&fig, &stem)?;
+            save_figure_as(
+                &fig,
+                &ctx.render_options(),
+                &stem,
+                ctx.config.outputs.render_formats(spec),
+            )?;
         }
     }
     Ok(())
+}
+
+/// The saved mesh `dir/<stem>.ply` (or `.obj`); an error naming the
+/// folder when neither exists.
+fn saved(dir: &Path, stem: &str) -> Result<PathBuf> {
+    MeshOut::find(dir, stem).ok_or_else(|| {
+        Error::invalid(format!(
+            "{}: no saved mesh {stem}.ply or {stem}.obj",
+            dir.display()
+        ))
+    })
 }
 
 /// Key points of a panel: (vertex, key point index).
@@ -1556,7 +1817,7 @@ fn clusters(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
     let mut made = 0;
     for id in &ids {
         let mdir = ctx.dir.join("meshes").join(id);
-        let source = read_mesh(&mdir.join("source.ply"))?;
+        let source = read_mesh(&saved(&mdir, "source")?)?;
         let mut ps = Vec::new();
         let lp = mdir.join("labels.csv");
         if lp.exists() {
@@ -1590,7 +1851,7 @@ fn clusters(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                 .map(|a| format!(" (ARI {a:.2})"))
                 .unwrap_or_default();
             ps.push(Panel {
-                label: format!("{g}{score}"),
+                label: format!("{}{score}", ctx.group_label(spec, g, g)),
                 mesh: source.clone(),
                 coloring: Coloring::Scalar {
                     values: l.iter().map(|&x| label_value(x)).collect(),
@@ -1605,13 +1866,12 @@ fn clusters(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             continue;
         }
         let fig = Figure {
-            title: spec
-                .title
-                .clone()
-                .unwrap_or_else(|| format!("{}: rotation groups (case {id})", ctx.title)),
-            caption: Some(ctx.caption.clone()),
+            title: ctx.title(spec, || {
+                format!("{}: rotation groups (case {id})", ctx.title)
+            }),
+            caption: ctx.subtitle(spec, ctx.caption.clone()),
             panels: ps,
-            camera: camera(&ctx.config),
+            camera: ctx.config.outputs.camera(&ctx.config.dataset),
             panel_size: (260, 360),
         };
         let stem = ctx.stem(spec, "clusters");
@@ -1621,7 +1881,12 @@ fn clusters(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_default()
         ));
-        save_figure(&fig, &stem)?;
+        save_figure_as(
+            &fig,
+            &ctx.render_options(),
+            &stem,
+            ctx.config.outputs.render_formats(spec),
+        )?;
         made += 1;
     }
     if made == 0 {

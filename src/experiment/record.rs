@@ -69,7 +69,7 @@ use std::time::Instant;
 use super::cases::Case;
 use super::config::{Method, MetricsSpec, NamedMethod};
 use super::dataset::Collection;
-use super::store::{num, save_mesh, secs, CaseResult, Curve, RenderOut};
+use super::store::{num, secs, CaseResult, Curve, RenderOut};
 use crate::eval::{
     aligned_vertex_errors, arap_energy, cluster_rigidity_rms, cumulative_curve, curve_grid,
     distortion, edge_strains, error_stats, face_log_area_ratios, fraction_within, percentile,
@@ -263,19 +263,49 @@ fn transfer(
     measure(b, &o.meshes, &cm.truth, metrics, out)?;
 
     if let Some(r) = render {
-        let dir = r.dir.join(name);
+        let out = r.method(name);
         if let Some(reg) = o.target.as_ref().and_then(|f| f.auto.as_ref()) {
-            save_mesh(&dir.join("registered.ply"), &reg.registered)?;
+            out.save("registered", &reg.registered, None)?;
         }
+        let sb = ErrorScale::of_reference(b)?;
+        let sa = ErrorScale::of_reference(a)?;
         for (j, pose) in case.poses.iter().enumerate().take(r.poses) {
-            save_mesh(&dir.join(format!("result_{pose}.ply")), &o.meshes[j])?;
+            // The errors behind `err_*_unit` (aligned when `procrustes`).
+            let error = match &cm.truth[j] {
+                Some(t) => Some(result_errors(&o.meshes[j], t, metrics.procrustes(), &sb)?),
+                None => None,
+            };
+            out.save(&format!("result_{pose}"), &o.meshes[j], error.as_deref())?;
             if let Some(fit) = &o.fit {
                 let fitted = a.with_vertices(fit.positions[j].clone())?;
-                save_mesh(&dir.join(format!("fit_{pose}.ply")), &fitted)?;
+                // The errors behind `fit_error_unit`.
+                let e: Vec<f64> = vertex_errors(&fit.positions[j], a_def[j].vertices())?
+                    .into_iter()
+                    .map(|e| e * sa.unit_sphere)
+                    .collect();
+                out.save(&format!("fit_{pose}"), &fitted, Some(&e))?;
             }
         }
     }
     Ok(())
+}
+
+/// Per-vertex distance of a transferred mesh to its ground truth in
+/// unit-sphere units of B (`sb`), after the best rigid alignment when
+/// `procrustes`: the values the `err_*_unit` columns summarise, stored with
+/// the result mesh.
+fn result_errors(
+    result: &Mesh,
+    truth: &Mesh,
+    procrustes: bool,
+    sb: &ErrorScale,
+) -> Result<Vec<f64>> {
+    let e = if procrustes {
+        aligned_vertex_errors(result.vertices(), truth.vertices())?
+    } else {
+        vertex_errors(result.vertices(), truth.vertices())?
+    };
+    Ok(e.into_iter().map(|x| x * sb.unit_sphere).collect())
 }
 
 /// `seconds_*` of a transfer.

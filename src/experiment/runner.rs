@@ -32,9 +32,9 @@ use super::lock::FolderLock;
 use super::manifest::{read_manifest, write_manifest, DefectNote, Invocation, Manifest, Shard};
 use super::record::run_method;
 use super::store::{
-    secs, store_key, BindOptions, Bound, CaseResult, RenderOut, Store, StoredConfig,
+    secs, store_key, BindOptions, Bound, CaseResult, MeshOut, RenderOut, Store, StoredConfig,
 };
-use crate::mesh::io::{temp, write_ply};
+use crate::mesh::io::temp;
 use crate::mesh::repair::DefectPolicy;
 use crate::{Error, Result};
 
@@ -124,21 +124,21 @@ pub fn run_configs(configs: &[PathBuf], opts: &RunOptions) -> Result<Vec<RunSumm
 }
 
 /// Saves the meshes a render needs: A, A′ (first poses), B, truths, labels.
-fn save_render_base(col: &Collection, case: &Case, dir: &Path, poses: usize) -> Result<()> {
+fn save_render_base(col: &Collection, case: &Case, out: &MeshOut, poses: usize) -> Result<()> {
+    let dir = &out.dir;
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let save = |name: String, s: &str, p: &str| -> Result<()> {
-        let path = dir.join(name);
-        if path.exists() {
+    let save = |stem: String, s: &str, p: &str| -> Result<()> {
+        if MeshOut::find(dir, &stem).is_some() {
             return Ok(());
         }
-        write_ply(&path, &*col.mesh(s, p)?)
+        out.save(&stem, &*col.mesh(s, p)?, None)
     };
-    save("source.ply".into(), &case.source, &case.reference)?;
-    save("target.ply".into(), &case.target, &case.reference)?;
+    save("source".into(), &case.source, &case.reference)?;
+    save("target".into(), &case.target, &case.reference)?;
     for (p, &has) in case.poses.iter().zip(&case.truth).take(poses) {
-        save(format!("deformed_{p}.ply"), &case.source, p)?;
+        save(format!("deformed_{p}"), &case.source, p)?;
         if has {
-            save(format!("truth_{p}.ply"), &case.target, p)?;
+            save(format!("truth_{p}"), &case.target, p)?;
         }
     }
     if let Some(labels) = &col.labels {
@@ -396,8 +396,13 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
 
     let render_cases = l.config.outputs.render_cases();
     let render_poses = l.config.outputs.render_poses();
+    let mesh_format = l.config.outputs.mesh_format().format();
     for c in mine.iter().filter(|c| c.index < render_cases) {
-        save_render_base(&col, c, &store.mesh_dir(&c.id), render_poses)?;
+        let out = MeshOut {
+            dir: store.mesh_dir(&c.id),
+            format: mesh_format,
+        };
+        save_render_base(&col, c, &out, render_poses)?;
     }
     if opts.progress {
         eprintln!(
@@ -451,6 +456,7 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
             let render = (case.index < render_cases && first_of_group).then(|| RenderOut {
                 dir: &mdir,
                 poses: render_poses,
+                format: mesh_format,
             });
             let status = match run_method(&col, case, m, metrics, render.as_ref(), &mut r) {
                 Ok(()) => "ok".to_string(),

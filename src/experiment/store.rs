@@ -9,10 +9,11 @@
 //! DIR/meshes/<case>/...    meshes saved for renders: source, deformed, target, truth, and
 //!                          the results of the first method of each group ([outputs] render_*)
 //! DIR/manifest.json        config, seed, crate version, git revision, threads, timings
-//! DIR/cases.csv            one row per case × method, rebuilt from cases/ in case order
+//! DIR/cases.csv            one row per case × method, rebuilt from cases/ in case order;
+//!                          the columns of CASE_COLUMNS that hold a value in some row
 //! DIR/curves.csv           case,method,curve,x,y (long format)
 //! DIR/summary.csv          method,group,metric,n,mean,std,min,median,max
-//! DIR/plots/               PNG + SVG
+//! DIR/plots/               PNG + SVG + PDF charts, PNG renders; tables as CSV, Markdown, LaTeX
 //! ```
 //!
 //! **Atomicity.** A result file is written to a unique temporary name in the
@@ -231,6 +232,66 @@ pub struct RenderOut<'a> {
     pub dir: &'a Path,
     /// Deformed poses saved (the first ones of the case).
     pub poses: usize,
+    /// File format of the meshes ([`crate::mesh::io::Format::Ply`] or
+    /// [`crate::mesh::io::Format::Obj`]).
+    pub format: crate::mesh::io::Format,
+}
+
+impl RenderOut<'_> {
+    /// The folder of method `name`'s meshes.
+    pub fn method(&self, name: &str) -> MeshOut {
+        MeshOut {
+            dir: self.dir.join(name),
+            format: self.format,
+        }
+    }
+}
+
+/// A folder of saved meshes and their format.
+#[derive(Clone, Debug)]
+pub struct MeshOut {
+    pub dir: PathBuf,
+    pub format: crate::mesh::io::Format,
+}
+
+impl MeshOut {
+    /// Saves `dir/<stem>.ply` (or `.obj`) unless it exists (a stored
+    /// result is never overwritten). `error`, one value per vertex (the
+    /// distance to the true position), goes into the PLY as the float
+    /// vertex property `error`, or beside an OBJ into `<stem>.error.txt`
+    /// (one number per line, in vertex order, nothing else).
+    pub fn save(&self, stem: &str, mesh: &crate::mesh::Mesh, error: Option<&[f64]>) -> Result<()> {
+        use crate::mesh::io::Format;
+        let obj = self.format == Format::Obj;
+        let path = self
+            .dir
+            .join(format!("{stem}.{}", if obj { "obj" } else { "ply" }));
+        if path.exists() {
+            return Ok(());
+        }
+        std::fs::create_dir_all(&self.dir).map_err(|e| Error::io(&self.dir, e))?;
+        match (obj, error) {
+            (false, None) => crate::mesh::io::write_ply(&path, mesh),
+            (false, Some(e)) => crate::mesh::io::write_ply_with(&path, mesh, &[("error", e)]),
+            (true, e) => {
+                if let Some(e) = e {
+                    let text: String = e.iter().map(|v| num(*v) + "\n").collect();
+                    let side = self.dir.join(format!("{stem}.error.txt"));
+                    write_file(&side, text.as_bytes(), true)?;
+                }
+                crate::mesh::io::write_obj(&path, mesh)
+            }
+        }
+    }
+
+    /// The saved mesh `dir/<stem>.ply`, else `dir/<stem>.obj` (`None`:
+    /// neither exists).
+    pub fn find(dir: &Path, stem: &str) -> Option<PathBuf> {
+        ["ply", "obj"]
+            .iter()
+            .map(|e| dir.join(format!("{stem}.{e}")))
+            .find(|p| p.is_file())
+    }
 }
 
 /// Saves a render mesh (PLY) unless `path` exists (a stored result is never
@@ -684,7 +745,12 @@ fn names_of(v: &[serde_json::Value]) -> Option<Vec<&str>> {
     v.iter().map(|x| x.get("name")?.as_str()).collect()
 }
 
-fn json_diff(prefix: &str, a: &serde_json::Value, b: &serde_json::Value, out: &mut Vec<String>) {
+pub(crate) fn json_diff(
+    prefix: &str,
+    a: &serde_json::Value,
+    b: &serde_json::Value,
+    out: &mut Vec<String>,
+) {
     use serde_json::Value;
     if let (Value::Array(x), Value::Array(y)) = (a, b) {
         if let (Some(nx), Some(ny)) = (names_of(x), names_of(y)) {
@@ -742,12 +808,39 @@ fn finish(w: csv::Writer<Vec<u8>>) -> Result<Vec<u8>> {
     w.into_inner().map_err(csv_err)
 }
 
-/// `cases.csv` bytes.
+/// The columns of `cases.csv` for `results`: those of [`CASE_COLUMNS`]
+/// (in its order) that hold a value in at least one result; all of them
+/// when there is no result.
+pub fn case_columns(results: &[CaseResult]) -> Vec<&'static str> {
+    if results.is_empty() {
+        return CASE_COLUMNS.to_vec();
+    }
+    CASE_COLUMNS
+        .iter()
+        .copied()
+        .filter(|c| {
+            results
+                .iter()
+                .any(|r| r.cells.get(*c).is_some_and(|v| !v.is_empty()))
+        })
+        .collect()
+}
+
+/// `cases.csv` bytes: one row per result, the columns of [`case_columns`]
+/// (no column is empty in every row). Readers find columns by name: an
+/// absent column is an empty cell in every row, so tables of older runs
+/// (every column) and of runs with other methods read alike.
 pub fn cases_csv(results: &[CaseResult]) -> Result<Vec<u8>> {
+    let columns = case_columns(results);
     let mut w = csv::Writer::from_writer(Vec::new());
-    w.write_record(CASE_COLUMNS).map_err(csv_err)?;
+    w.write_record(&columns).map_err(csv_err)?;
     for r in results {
-        w.write_record(r.row()).map_err(csv_err)?;
+        w.write_record(
+            columns
+                .iter()
+                .map(|c| r.cells.get(*c).map_or("", String::as_str)),
+        )
+        .map_err(csv_err)?;
     }
     finish(w)
 }

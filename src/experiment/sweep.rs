@@ -801,6 +801,8 @@ fn add_sweep_plots(
                 lead: Vec::new(),
                 lead_from: None,
                 labels: BTreeMap::new(),
+                subtitle: None,
+                formats: None,
             });
         }
     }

@@ -1,6 +1,6 @@
 //! Line charts, grouped bar charts and tables drawn with plotters on any
 //! backend: a 2× supersampled bitmap (downsampled to the PNG, which
-//! anti-aliases lines) and SVG.
+//! anti-aliases lines) and SVG (converted to the PDF, [`super::pdf`]).
 //!
 //! Layout (at the 1200 × 800 reference size; everything scales with the
 //! supersampling factor): title 30 px bold, caption 20 px, axis labels 22 px,
@@ -18,7 +18,8 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::axis::{format_log_tick, format_tick, log_axis_is_scientific, Axis, Scale};
 use super::font::{self, ensure_font, GlyphBackend};
-use super::output::{with_suffix, write_bytes_atomic, write_png_atomic, Image};
+use super::output::{with_suffix, write_bytes_atomic, write_png_atomic, Formats, Image};
+use super::pdf::svg_to_pdf;
 use super::style::{series_style, Marker, SeriesStyle, FLOOR_STYLE, MAX_PLAIN_SERIES};
 use super::{BarChart, LineChart};
 use crate::{Error, Result};
@@ -806,13 +807,26 @@ fn bitmap<C: ChartDraw>(
     Ok((big.downsample(SUPERSAMPLE), placement))
 }
 
-/// Both renderings in memory first, then the PNG and the SVG files.
-fn render_chart<C: ChartDraw>(chart: &C, stem: &Path, size: (u32, u32)) -> Result<()> {
+/// Every rendering in memory first (the bitmap always: it places the
+/// legend), then the files `formats` asks for, each atomically.
+fn render_chart<C: ChartDraw>(
+    chart: &C,
+    stem: &Path,
+    size: (u32, u32),
+    formats: Formats,
+) -> Result<()> {
+    if formats.is_empty() {
+        return Err(Error::invalid(format!(
+            "{}: no output format chosen",
+            stem.display()
+        )));
+    }
     let png = with_suffix(stem, "png")?;
     let svg = with_suffix(stem, "svg")?;
+    let pdf = with_suffix(stem, "pdf")?;
     let (image, placement) = bitmap(chart, size, &png.display().to_string())?;
     let mut text = String::new();
-    {
+    if formats.svg || formats.pdf {
         let fail =
             |msg: String| Error::invalid(format!("{}: drawing failed: {msg}", svg.display()));
         let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
@@ -821,8 +835,21 @@ fn render_chart<C: ChartDraw>(chart: &C, stem: &Path, size: (u32, u32)) -> Resul
             .map_err(fail)?;
         root.present().map_err(|e| fail(e.to_string()))?;
     }
-    write_png_atomic(&png, &image)?;
-    write_bytes_atomic(&svg, text.as_bytes())
+    let pdf_bytes = if formats.pdf {
+        Some(svg_to_pdf(&text, &pdf.display().to_string())?)
+    } else {
+        None
+    };
+    if formats.png {
+        write_png_atomic(&png, &image)?;
+    }
+    if formats.svg {
+        write_bytes_atomic(&svg, text.as_bytes())?;
+    }
+    if let Some(bytes) = pdf_bytes {
+        write_bytes_atomic(&pdf, &bytes)?;
+    }
+    Ok(())
 }
 
 /// The PNG rendering of a line chart ([`CHART_SIZE`]) without writing it.
@@ -861,11 +888,10 @@ impl ChartDraw for LineJob<'_> {
     }
 }
 
-/// See [`super::save_line_chart`].
-pub fn save_line_chart(chart: &LineChart, stem: &Path) -> Result<()> {
-    let name = format!("{}.{{png,svg}}", stem.display());
-    let prepared = prepare_line(chart, &name)?;
-    render_chart(&LineJob { chart, prepared }, stem, CHART_SIZE)
+/// See [`super::save_line_chart_as`].
+pub fn save_line_chart(chart: &LineChart, stem: &Path, formats: Formats) -> Result<()> {
+    let prepared = prepare_line(chart, &formats.describe(stem))?;
+    render_chart(&LineJob { chart, prepared }, stem, CHART_SIZE, formats)
 }
 
 // --------------------------------------------------------------- line panels
@@ -1136,11 +1162,10 @@ fn prepare_panels<'a>(f: &'a super::LinePanels, name: &str) -> Result<(PanelsJob
     ))
 }
 
-/// See [`super::save_line_panels`].
-pub fn save_line_panels(f: &super::LinePanels, stem: &Path) -> Result<()> {
-    let name = format!("{}.{{png,svg}}", stem.display());
-    let (job, size) = prepare_panels(f, &name)?;
-    render_chart(&job, stem, size)
+/// See [`super::save_line_panels_as`].
+pub fn save_line_panels(f: &super::LinePanels, stem: &Path, formats: Formats) -> Result<()> {
+    let (job, size) = prepare_panels(f, &formats.describe(stem))?;
+    render_chart(&job, stem, size, formats)
 }
 
 /// The PNG rendering of a [`super::LinePanels`] figure without writing it.
@@ -1372,7 +1397,7 @@ fn draw_bar_chart<DB: DrawingBackend>(
 
 /// Greedy word wrap of `text` into lines at most `width` pixels wide at
 /// `size` (a single word wider than that stays on its own line).
-fn wrap(text: &str, size: f64, width: f64) -> Vec<String> {
+pub(crate) fn wrap(text: &str, size: f64, width: f64) -> Vec<String> {
     // Pieces and the separator before each: words split at spaces, and
     // words too wide for a line also after their hyphens and underscores
     // ("auto-handle-relative" → "auto-", "handle-", "relative").
@@ -1479,11 +1504,10 @@ impl ChartDraw for BarJob<'_> {
     }
 }
 
-/// See [`super::save_bar_chart`].
-pub fn save_bar_chart(chart: &BarChart, stem: &Path) -> Result<()> {
-    let name = format!("{}.{{png,svg}}", stem.display());
-    let prepared = prepare_bar(chart, &name)?;
-    render_chart(&BarJob { chart, prepared }, stem, CHART_SIZE)
+/// See [`super::save_bar_chart_as`].
+pub fn save_bar_chart(chart: &BarChart, stem: &Path, formats: Formats) -> Result<()> {
+    let prepared = prepare_bar(chart, &formats.describe(stem))?;
+    render_chart(&BarJob { chart, prepared }, stem, CHART_SIZE, formats)
 }
 
 // --------------------------------------------------------------------- table
@@ -1587,9 +1611,9 @@ impl ChartDraw for TableJob<'_> {
     }
 }
 
-/// See [`super::save_table`].
-pub fn save_table(table: &super::Table, stem: &Path) -> Result<()> {
-    let name = format!("{}.{{png,svg}}", stem.display());
+/// See [`super::save_table_as`].
+pub fn save_table(table: &super::Table, stem: &Path, formats: Formats) -> Result<()> {
+    let name = formats.describe(stem);
     let nc = table.columns.len();
     if nc == 0 {
         return Err(Error::invalid(format!(
@@ -1650,6 +1674,7 @@ pub fn save_table(table: &super::Table, stem: &Path) -> Result<()> {
         },
         stem,
         (width, height),
+        formats,
     )
 }
 

@@ -5,8 +5,9 @@
 use std::path::{Path, PathBuf};
 
 use super::{
-    save_bar_chart, save_figure, save_figure_with, save_line_chart, save_table, BarChart, Camera,
-    ColorMap, Coloring, Figure, LineChart, Panel, RenderOptions, Series, Table,
+    save_bar_chart, save_figure, save_figure_as, save_figure_with, save_line_chart, save_table,
+    BarChart, Camera, ColorMap, Coloring, Figure, Formats, LineChart, Panel, RenderOptions, Series,
+    Table,
 };
 use crate::data::synthetic::FaustStyle;
 use crate::ops::{farthest_point_sampling, FpsMetric};
@@ -56,7 +57,7 @@ pub fn demo(dir: &Path) -> Result<Vec<PathBuf>> {
     };
     let stem = dir.join("line_cumulative");
     save_line_chart(&line, &stem)?;
-    push(stem, &["png", "svg"]);
+    push(stem, &["png", "svg", "pdf"]);
 
     // Error vs number of key points (log y, markers).
     let ks: Vec<f64> = [5, 10, 15, 20, 30, 40, 60]
@@ -93,7 +94,7 @@ pub fn demo(dir: &Path) -> Result<Vec<PathBuf>> {
     };
     let stem = dir.join("line_keypoints");
     save_line_chart(&keyed, &stem)?;
-    push(stem, &["png", "svg"]);
+    push(stem, &["png", "svg", "pdf"]);
 
     // Ablation bars with error bars.
     let bars = BarChart {
@@ -118,7 +119,7 @@ pub fn demo(dir: &Path) -> Result<Vec<PathBuf>> {
     };
     let stem = dir.join("bar_ablation");
     save_bar_chart(&bars, &stem)?;
-    push(stem, &["png", "svg"]);
+    push(stem, &["png", "svg", "pdf"]);
 
     // Timings on a log axis.
     let timing = BarChart {
@@ -141,7 +142,7 @@ pub fn demo(dir: &Path) -> Result<Vec<PathBuf>> {
     };
     let stem = dir.join("bar_timings_log");
     save_bar_chart(&timing, &stem)?;
-    push(stem, &["png", "svg"]);
+    push(stem, &["png", "svg", "pdf"]);
 
     // The same numbers as a table.
     let table = Table {
@@ -180,7 +181,7 @@ pub fn demo(dir: &Path) -> Result<Vec<PathBuf>> {
     };
     let stem = dir.join("table_timings");
     save_table(&table, &stem)?;
-    push(stem, &["png", "svg"]);
+    push(stem, &["png", "svg", "pdf"]);
 
     // Eight series: colours plus dash patterns and markers.
     let many = LineChart {
@@ -203,7 +204,7 @@ pub fn demo(dir: &Path) -> Result<Vec<PathBuf>> {
     };
     let stem = dir.join("line_eight");
     save_line_chart(&many, &stem)?;
-    push(stem, &["png", "svg"]);
+    push(stem, &["png", "svg", "pdf"]);
 
     // Synthetic mesh figure: three poses, error w.r.t. pose 0, 5 key points.
     let set = FaustStyle {
@@ -255,8 +256,8 @@ pub fn demo(dir: &Path) -> Result<Vec<PathBuf>> {
         panel_size: (420, 620),
     };
     let stem = dir.join("figure_synthetic");
-    save_figure(&fig, &stem)?;
-    push(stem, &["png"]);
+    save_figure_as(&fig, &RenderOptions::default(), &stem, Formats::CHARTS)?;
+    push(stem, &["png", "svg", "pdf"]);
     // The same with the light-to-dark red map and one scale for all panels.
     fig.caption = Some("ColorMap::Reds, shared_scale: colour = displacement from pose 0".into());
     let opts = RenderOptions {

@@ -2,16 +2,21 @@
 //! number of key points), grouped bar charts (ablations, timings) and mesh
 //! renders (figure panels of shaded meshes with error colour maps and key
 //! points). PNG and SVG via plotters with a bundled font (no system
-//! libraries). This is one of the layers that does file I/O.
+//! libraries), PDF converted from the SVG ([`pdf`]). This is one of the
+//! layers that does file I/O.
 //!
 //! - [`save_line_chart`], [`save_bar_chart`]: 1200 × 800 PNG (2×
-//!   supersampled) and SVG, written atomically; see [`charts`] for layout.
+//!   supersampled), SVG and PDF, written atomically; see [`charts`] for
+//!   layout. The `_as` variants ([`save_line_chart_as`], …) write the
+//!   [`Formats`] asked for.
 //! - [`save_line_panels`]: several line charts side by side in one figure
 //!   with a shared legend ([`LinePanels`]).
-//! - [`save_table`]: a table (timings) as PNG and SVG sized to its content.
-//! - [`save_figure`] ([`save_figure_with`] for [`RenderOptions`]): a row of
-//!   software-rendered mesh panels ([`render`]) with key points and colour
-//!   bars, PNG. [`Camera`] has recommended constants per data set
+//! - [`save_table`]: a table (timings) as PNG, SVG and PDF sized to its
+//!   content.
+//! - [`save_figure`] ([`save_figure_with`] for [`RenderOptions`],
+//!   [`save_figure_as`] for the [`Formats`]): rows of software-rendered mesh
+//!   panels ([`render`]) with key points and colour bars, PNG; SVG and PDF
+//!   with the mesh raster under vector text ([`figure_svg`]). [`Camera`] has recommended constants per data set
 //!   ([`Camera::FAUST`], [`Camera::SYNTHETIC`], [`Camera::TOSCA`],
 //!   [`Camera::CACTUS`], [`Camera::SUMNER`], [`Camera::ARMADILLO`]).
 //! - In memory, without files: [`line_chart_image`], [`bar_chart_image`],
@@ -32,6 +37,7 @@ pub mod demo;
 pub mod figure;
 pub mod font;
 pub mod output;
+pub mod pdf;
 pub mod render;
 pub mod style;
 
@@ -41,9 +47,13 @@ use crate::{Mesh, Result};
 
 pub use charts::{bar_chart_image, line_chart_image, line_panels_image, CHART_SIZE};
 pub use demo::demo;
-pub use figure::{render_figure, save_figure_with, DEFAULT_PANEL_SIZE};
-pub use output::Image;
-pub use render::{render_mesh, RenderOptions, Shading, View};
+pub use figure::{
+    figure_svg, render_figure, save_figure_as, save_figure_with, DEFAULT_PANEL_SIZE,
+    VECTOR_RASTER_SCALE,
+};
+pub use output::{Formats, Image};
+pub use pdf::svg_to_pdf;
+pub use render::{render_mesh, RenderOptions, Shading, View, DEFAULT_MAX_PER_ROW};
 pub use style::{colormap, keypoint_color, series_style, ColorMap, SeriesStyle, FLOOR_STYLE};
 
 /// One line of a [`LineChart`].
@@ -101,11 +111,17 @@ pub struct LinePanels {
     pub panels: Vec<LineChart>,
 }
 
-/// Writes `stem.png` and `stem.svg` (atomically): 760 × 640 pixels per
-/// panel plus the header and the legend. Errors as [`save_line_chart`] does,
-/// naming the panel's series, and on a figure without panels.
+/// Writes `stem.png`, `stem.svg` and `stem.pdf` (atomically): 760 × 640
+/// pixels per panel plus the header and the legend. Errors as
+/// [`save_line_chart`] does, naming the panel's series, and on a figure
+/// without panels.
 pub fn save_line_panels(figure: &LinePanels, stem: &Path) -> Result<()> {
-    charts::save_line_panels(figure, stem)
+    save_line_panels_as(figure, stem, Formats::CHARTS)
+}
+
+/// [`save_line_panels`] in the chosen formats.
+pub fn save_line_panels_as(figure: &LinePanels, stem: &Path, formats: Formats) -> Result<()> {
+    charts::save_line_panels(figure, stem, formats)
 }
 
 /// A grouped bar chart: one group per category, one bar per series.
@@ -127,18 +143,29 @@ pub struct BarChart {
     pub log_y: bool,
 }
 
-/// Writes `stem.png` and `stem.svg` (atomically: temporary file + rename).
-/// Errors on empty or non-finite data (naming the series) and on I/O.
-/// Parent directories are created.
+/// Writes `stem.png`, `stem.svg` and `stem.pdf` ([`Formats::CHARTS`];
+/// each atomically: dot-prefixed temporary file + rename). Errors on empty
+/// or non-finite data (naming the series) and on I/O. Parent directories
+/// are created.
 pub fn save_line_chart(chart: &LineChart, stem: &Path) -> Result<()> {
-    charts::save_line_chart(chart, stem)
+    save_line_chart_as(chart, stem, Formats::CHARTS)
 }
 
-/// Writes `stem.png` and `stem.svg` (atomically).
+/// [`save_line_chart`] in the chosen formats.
+pub fn save_line_chart_as(chart: &LineChart, stem: &Path, formats: Formats) -> Result<()> {
+    charts::save_line_chart(chart, stem, formats)
+}
+
+/// Writes `stem.png`, `stem.svg` and `stem.pdf` (atomically).
 /// Errors on empty charts, values that do not match the categories, and
 /// non-finite (or, with `log_y`, non-positive) values, naming the series.
 pub fn save_bar_chart(chart: &BarChart, stem: &Path) -> Result<()> {
-    charts::save_bar_chart(chart, stem)
+    save_bar_chart_as(chart, stem, Formats::CHARTS)
+}
+
+/// [`save_bar_chart`] in the chosen formats.
+pub fn save_bar_chart_as(chart: &BarChart, stem: &Path, formats: Formats) -> Result<()> {
+    charts::save_bar_chart(chart, stem, formats)
 }
 
 /// A table drawn as a figure (timings, ablation numbers): a header row in
@@ -155,10 +182,15 @@ pub struct Table {
     pub rows: Vec<Vec<String>>,
 }
 
-/// Writes `stem.png` and `stem.svg` (atomically), sized to the content.
-/// Errors on a table without columns or rows and on ragged rows.
+/// Writes `stem.png`, `stem.svg` and `stem.pdf` (atomically), sized to the
+/// content. Errors on a table without columns or rows and on ragged rows.
 pub fn save_table(table: &Table, stem: &Path) -> Result<()> {
-    charts::save_table(table, stem)
+    save_table_as(table, stem, Formats::CHARTS)
+}
+
+/// [`save_table`] in the chosen formats.
+pub fn save_table_as(table: &Table, stem: &Path, formats: Formats) -> Result<()> {
+    charts::save_table(table, stem, formats)
 }
 
 /// Viewing direction of a render (orthographic camera looking at the
@@ -235,7 +267,8 @@ pub struct Panel {
     pub keypoints: Vec<(usize, usize)>,
 }
 
-/// A row of panels side by side (BDT Figs. 3, 5, 8, 10–13).
+/// Panels side by side (BDT Figs. 3, 5, 8, 10–13), in rows of at most
+/// [`RenderOptions::max_per_row`].
 #[derive(Clone, Debug, Default)]
 pub struct Figure {
     /// Title above the panels.
@@ -250,10 +283,11 @@ pub struct Figure {
     pub panel_size: (u32, u32),
 }
 
-/// Renders the figure to `stem.png` (atomically). Errors on an empty
-/// figure, a colouring or key point that does not fit its mesh, and I/O.
-/// `panel_size` `(0, 0)` (the `Default`) means [`DEFAULT_PANEL_SIZE`].
-/// Uses [`RenderOptions::default`].
+/// Renders the figure to `stem.png` (atomically; [`save_figure_as`] for
+/// SVG and PDF too). Errors on an empty figure, a colouring or key point
+/// that does not fit its mesh, and I/O. `panel_size` `(0, 0)` (the
+/// `Default`) means [`DEFAULT_PANEL_SIZE`]. Uses [`RenderOptions::default`]
+/// (at most [`DEFAULT_MAX_PER_ROW`] panels a row).
 pub fn save_figure(figure: &Figure, stem: &Path) -> Result<()> {
     save_figure_with(figure, &RenderOptions::default(), stem)
 }

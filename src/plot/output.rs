@@ -95,6 +95,79 @@ impl Image {
     }
 }
 
+/// Which files a figure is written as: `stem.png` (raster), `stem.svg`
+/// (vector; renders: the mesh raster under vector text) and `stem.pdf`
+/// (converted from the SVG, [`super::pdf`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Formats {
+    pub png: bool,
+    pub svg: bool,
+    pub pdf: bool,
+}
+
+impl Formats {
+    /// What the chart functions (`save_line_chart`, …) write by default:
+    /// PNG, SVG and PDF.
+    pub const CHARTS: Formats = Formats {
+        png: true,
+        svg: true,
+        pdf: true,
+    };
+    /// What the render functions (`save_figure`, …) write by default: PNG.
+    pub const RENDERS: Formats = Formats {
+        png: true,
+        svg: false,
+        pdf: false,
+    };
+    /// The format names accepted by [`Formats::from_names`].
+    pub const NAMES: [&'static str; 3] = ["png", "svg", "pdf"];
+
+    /// The formats named (`"png"`, `"svg"`, `"pdf"`); errors on another
+    /// name and on an empty list.
+    pub fn from_names<S: AsRef<str>>(names: &[S]) -> std::result::Result<Formats, String> {
+        let mut f = Formats {
+            png: false,
+            svg: false,
+            pdf: false,
+        };
+        for n in names {
+            match n.as_ref() {
+                "png" => f.png = true,
+                "svg" => f.svg = true,
+                "pdf" => f.pdf = true,
+                other => {
+                    return Err(format!(
+                        "unknown format {other:?}; expected some of \"png\", \"svg\", \"pdf\""
+                    ))
+                }
+            }
+        }
+        if f.is_empty() {
+            return Err("expected at least one format (\"png\", \"svg\", \"pdf\")".into());
+        }
+        Ok(f)
+    }
+
+    /// Whether no format is chosen.
+    pub fn is_empty(&self) -> bool {
+        !(self.png || self.svg || self.pdf)
+    }
+
+    /// The extensions chosen, in the order png, svg, pdf.
+    pub fn extensions(&self) -> Vec<&'static str> {
+        [(self.png, "png"), (self.svg, "svg"), (self.pdf, "pdf")]
+            .iter()
+            .filter(|(on, _)| *on)
+            .map(|(_, e)| *e)
+            .collect()
+    }
+
+    /// `stem.{png,svg,pdf}` (the chosen ones), for messages.
+    pub fn describe(&self, stem: &Path) -> String {
+        format!("{}.{{{}}}", stem.display(), self.extensions().join(","))
+    }
+}
+
 /// `stem` with `.ext` appended (not replacing an existing extension:
 /// `fig.v2` gives `fig.v2.png`). Errors if `stem` has no file name.
 pub fn with_suffix(stem: &Path, ext: &str) -> Result<PathBuf> {
@@ -132,6 +205,43 @@ pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     commit(&tmp, path)
 }
 
+/// The PNG encoding of `image` (8-bit RGB), in memory.
+pub fn encode_png(image: &Image) -> Result<Vec<u8>> {
+    let mut out = Vec::new();
+    let fail = |e: png::EncodingError| Error::invalid(format!("PNG encoding failed: {e}"));
+    {
+        let mut enc = png::Encoder::new(&mut out, image.width, image.height);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut w = enc.write_header().map_err(fail)?;
+        w.write_image_data(&image.rgb).map_err(fail)?;
+        w.finish().map_err(fail)?;
+    }
+    Ok(out)
+}
+
+/// Standard base64 (RFC 4648, with padding) of `bytes`.
+pub fn base64(bytes: &[u8]) -> String {
+    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
+    for chunk in bytes.chunks(3) {
+        let b = [
+            chunk[0],
+            chunk.get(1).copied().unwrap_or(0),
+            chunk.get(2).copied().unwrap_or(0),
+        ];
+        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
+        for k in 0..4 {
+            if k <= chunk.len() {
+                out.push(ALPHABET[(n >> (18 - 6 * k) & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
 /// Encodes `image` as PNG at `path` atomically, creating parent directories.
 pub fn write_png_atomic(path: &Path, image: &Image) -> Result<()> {
     if image.width == 0 || image.height == 0 {
@@ -166,5 +276,32 @@ pub fn write_png_atomic(path: &Path, image: &Image) -> Result<()> {
                 path.display()
             )))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_matches_the_rfc_examples() {
+        for (plain, coded) in [
+            ("", ""),
+            ("f", "Zg=="),
+            ("fo", "Zm8="),
+            ("foo", "Zm9v"),
+            ("foob", "Zm9vYg=="),
+            ("fooba", "Zm9vYmE="),
+            ("foobar", "Zm9vYmFy"),
+        ] {
+            assert_eq!(base64(plain.as_bytes()), coded);
+        }
+    }
+
+    #[test]
+    fn in_memory_png_has_the_size() {
+        let png = encode_png(&Image::new(7, 3, [1, 2, 3])).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        assert_eq!(&png[16..24], &[0, 0, 0, 7, 0, 0, 0, 3]);
     }
 }

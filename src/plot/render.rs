@@ -65,7 +65,15 @@ pub struct RenderOptions {
     /// per-panel fits), so sizes compare across panels; `false` fits each
     /// panel on its own.
     pub shared_scale: bool,
+    /// Panels per row of a figure at most: more panels wrap onto further
+    /// rows (0: one row whatever the count). Default
+    /// [`DEFAULT_MAX_PER_ROW`].
+    pub max_per_row: usize,
 }
+
+/// Panels per row of a figure unless [`RenderOptions::max_per_row`] says
+/// otherwise.
+pub const DEFAULT_MAX_PER_ROW: usize = 6;
 
 impl Default for RenderOptions {
     fn default() -> Self {
@@ -80,6 +88,7 @@ impl Default for RenderOptions {
             background: [255, 255, 255],
             shared_scale: false,
             colormap: ColorMap::Viridis,
+            max_per_row: DEFAULT_MAX_PER_ROW,
         }
     }
 }

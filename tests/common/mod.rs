@@ -175,17 +175,28 @@ pub fn copy_dir(from: &Path, to: &Path) {
     }
 }
 
-/// The rows of a CSV file as maps column name → cell.
+/// The rows of a CSV file as maps column name → cell. A `cases.csv` holds
+/// only the columns with a value in some row: every other column of
+/// `deformlab::experiment::CASE_COLUMNS` is added as an empty cell, as the
+/// readers of the project treat it.
 pub fn csv_rows(path: &Path) -> Vec<BTreeMap<String, String>> {
     let mut r = csv::Reader::from_path(path).unwrap();
     let head = r.headers().unwrap().clone();
+    let cases = path.file_name().is_some_and(|n| n == "cases.csv");
     r.records()
         .map(|rec| {
             let rec = rec.unwrap();
-            head.iter()
+            let mut row: BTreeMap<String, String> = head
+                .iter()
                 .zip(rec.iter())
                 .map(|(h, c)| (h.to_string(), c.to_string()))
-                .collect()
+                .collect();
+            if cases {
+                for c in deformlab::experiment::CASE_COLUMNS {
+                    row.entry(c.to_string()).or_default();
+                }
+            }
+            row
         })
         .collect()
 }

@@ -7,7 +7,7 @@
 //!
 //! | format | read | write | notes |
 //! |---|---|---|---|
-//! | `.ply` | ascii, binary LE/BE (via `ply-rs-bw`) | binary LE, f64 | any scalar types, extra properties skipped |
+//! | `.ply` | ascii, binary LE/BE (via `ply-rs-bw`) | binary LE, f64 (+ float per-vertex scalars, [`write_ply_with`]) | any scalar types, extra properties skipped ([`read_ply_vertex_scalar`] reads one) |
 //! | `.off` | text (OFF/COFF/NOFF) | — | zero-based indices |
 //! | `.obj` | `v` and `f` | yes | one-based or negative indices |
 //! | `.vert`+`.tri` | TOSCA text pair | — | one-based `.tri` indices |
@@ -204,19 +204,58 @@ pub fn read_mesh(path: &Path) -> Result<Mesh> {
 /// Writes to a temporary file beside `path` and renames it, so a reader never
 /// sees a half-written mesh.
 pub fn write_ply(path: &Path, mesh: &Mesh) -> Result<()> {
-    let mut buf: Vec<u8> = Vec::with_capacity(32 * mesh.n_vertices() + 13 * mesh.n_faces() + 256);
+    write_ply_with(path, mesh, &[])
+}
+
+/// [`write_ply`] with per-vertex scalar properties after `x y z`, each
+/// `(name, one value per vertex)`, stored as `float` (32-bit): e.g. an
+/// `error` that MeshLab, Polyscope or trimesh can colour by. Errors if a
+/// list's length is not the vertex count or a name is not a plain
+/// identifier (or is `x`, `y`, `z`). [`read_mesh`] skips such properties;
+/// [`read_ply_vertex_scalar`] reads one back.
+pub fn write_ply_with(path: &Path, mesh: &Mesh, scalars: &[(&str, &[f64])]) -> Result<()> {
+    let n = mesh.n_vertices();
+    for (name, values) in scalars {
+        let plain = !name.is_empty()
+            && name.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_')
+            && !matches!(*name, "x" | "y" | "z");
+        if !plain {
+            return Err(Error::invalid(format!(
+                "{}: {name:?} is not a usable PLY property name",
+                path.display()
+            )));
+        }
+        if values.len() != n {
+            return Err(Error::invalid(format!(
+                "{}: property {name} has {} values for {n} vertices",
+                path.display(),
+                values.len()
+            )));
+        }
+    }
+    let mut buf: Vec<u8> =
+        Vec::with_capacity((24 + 4 * scalars.len()) * n + 13 * mesh.n_faces() + 256);
     write!(
         buf,
         "ply\nformat binary_little_endian 1.0\ncomment written by deformlab\n\
-         element vertex {}\nproperty double x\nproperty double y\nproperty double z\n\
-         element face {}\nproperty list uchar int vertex_indices\nend_header\n",
-        mesh.n_vertices(),
+         element vertex {n}\nproperty double x\nproperty double y\nproperty double z\n"
+    )
+    .expect("writing to a Vec cannot fail");
+    for (name, _) in scalars {
+        writeln!(buf, "property float {name}").expect("writing to a Vec cannot fail");
+    }
+    write!(
+        buf,
+        "element face {}\nproperty list uchar int vertex_indices\nend_header\n",
         mesh.n_faces()
     )
     .expect("writing to a Vec cannot fail");
-    for p in mesh.vertices() {
+    for (i, p) in mesh.vertices().iter().enumerate() {
         for c in [p.x, p.y, p.z] {
             buf.extend_from_slice(&c.to_le_bytes());
+        }
+        for (_, values) in scalars {
+            buf.extend_from_slice(&(values[i] as f32).to_le_bytes());
         }
     }
     for f in mesh.faces() {
@@ -228,6 +267,14 @@ pub fn write_ply(path: &Path, mesh: &Mesh) -> Result<()> {
         }
     }
     write_atomic(path, &buf)
+}
+
+/// The per-vertex scalar property `name` of a PLY file (any encoding and
+/// scalar type, as `f64`), or `None` when its vertex element has no such
+/// property. Errors as [`read_mesh`] does on a malformed file.
+pub fn read_ply_vertex_scalar(path: &Path, name: &str) -> Result<Option<Vec<f64>>> {
+    let bytes = read_input_file(path)?;
+    ply::parse_vertex_scalar(path, text::strip_bom(&bytes), name)
 }
 
 /// Writes a Wavefront OBJ (`v` and one-based `f` lines, coordinates in the

@@ -23,7 +23,8 @@ use std::path::Path;
 
 use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{
-    Encoding, Header, Property, PropertyAccess, PropertyAccessResult, PropertyType, ScalarType,
+    DefaultElement, Encoding, Header, Property, PropertyAccess, PropertyAccessResult, PropertyType,
+    ScalarType,
 };
 
 use super::text::{capped, fan};
@@ -315,4 +316,65 @@ pub(super) fn parse_ply(path: &Path, bytes: &[u8]) -> Result<RawMesh> {
         }
     }
     Ok(raw)
+}
+
+/// The vertex property `name` of a PLY file's bytes (`None` when the
+/// vertex element has none); a list property is an error. `path` names the
+/// file in messages.
+pub(super) fn parse_vertex_scalar(
+    path: &Path,
+    bytes: &[u8],
+    name: &str,
+) -> Result<Option<Vec<f64>>> {
+    let mut reader = Reader::new(bytes);
+    let header = Parser::<Skip>::new()
+        .read_header(&mut reader)
+        .map_err(|e| Error::parse(path, "header", quote_header_line(bytes, &e.to_string())))?;
+    let vdef = header
+        .elements
+        .get("vertex")
+        .ok_or_else(|| Error::parse(path, "header", "no 'vertex' element declared"))?;
+    match vdef.properties.get(name).map(|p| &p.data_type) {
+        None => return Ok(None),
+        Some(PropertyType::List(..)) => {
+            return Err(Error::parse(
+                path,
+                "header",
+                format!("vertex property '{name}' is a list, expected a number"),
+            ))
+        }
+        Some(PropertyType::Scalar(_)) => {}
+    }
+    check_binary_sizes(path, &header, bytes.len())?;
+    for def in header.elements.values() {
+        if def.properties.is_empty() && header.encoding != Encoding::Ascii {
+            continue;
+        }
+        let wrap = |e: ply_rs_bw::parser::ParseError| {
+            Error::parse(
+                path,
+                format!("element '{}'", def.name),
+                tidy(&e.to_string()),
+            )
+        };
+        if def.name == "vertex" {
+            let vs = Parser::<DefaultElement>::new()
+                .read_payload_for_element(&mut reader, def, &header)
+                .map_err(wrap)?;
+            return vs
+                .iter()
+                .enumerate()
+                .map(|(i, v)| {
+                    v.get(name).and_then(scalar_f64).ok_or_else(|| {
+                        Error::parse(path, format!("vertex {i}"), format!("no number '{name}'"))
+                    })
+                })
+                .collect::<Result<Vec<f64>>>()
+                .map(Some);
+        }
+        Parser::<Skip>::new()
+            .read_payload_for_element(&mut reader, def, &header)
+            .map_err(wrap)?;
+    }
+    Ok(None)
 }
