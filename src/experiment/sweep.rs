@@ -713,7 +713,7 @@ fn expand(table: &mut Table, grids: &mut [Vec<Axis>], base: &LoadedConfig) -> Re
         }
     }
     let mut out = reparse(table, base).map_err(|e| attribute(e, &path, "sweep"))?;
-    add_sweep_plots(&mut out, grids, &variants_of);
+    add_sweep_plots(&mut out, grids, &variants_of, &dependents);
     out.sweep = Some(serde_json::json!({
         "axes": grids.iter().enumerate().flat_map(|(g, axes)| axes.iter().map(move |a| {
             serde_json::json!({
@@ -736,6 +736,7 @@ fn add_sweep_plots(
     l: &mut LoadedConfig,
     grids: &[Vec<Axis>],
     variants_of: &BTreeMap<String, Vec<String>>,
+    dependents: &BTreeMap<String, BTreeSet<String>>,
 ) {
     let mut columns: Vec<(String, String)> = Vec::new();
     for a in grids.iter().flatten() {
@@ -761,12 +762,15 @@ fn add_sweep_plots(
         .filter_map(|p| p.x.clone())
         .collect();
     let mut add = Vec::new();
-    for (_, col) in &columns {
+    for (key, col) in &columns {
         if existing.contains(col) {
             continue;
         }
         // The methods whose variants differ in this column.
-        let templates: Vec<(&String, &Vec<String>)> = variants_of.iter().collect();
+        let templates: Vec<(&String, &Vec<String>)> = variants_of
+            .iter()
+            .filter(|(t, _)| dependents.get(key).is_some_and(|d| d.contains(*t)))
+            .collect();
         let several = templates.len() > 1;
         for (t, vs) in templates {
             let Some(first) = l.methods.iter().find(|m| vs.contains(&m.name)) else {
