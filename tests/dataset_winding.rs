@@ -150,6 +150,8 @@ fn bdt_runs_on_tosca_centaurs_including_centaur3() {
         eprintln!("SKIP bdt_runs_on_tosca_centaurs_including_centaur3: no centaur3.off");
         return;
     }
+    // The config lives in a temporary folder: name the data absolutely.
+    let tosca = std::fs::canonicalize(&tosca).unwrap();
     let d = tmp();
     let text = format!(
         r#"
