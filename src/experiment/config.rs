@@ -1176,6 +1176,35 @@ pub struct PlotSpec {
     pub labels: BTreeMap<String, String>,
 }
 
+impl PlotSpec {
+    /// A plot of `kind` over `metrics`, every other key at its default.
+    pub fn new(kind: PlotKind, metrics: &[&str]) -> Self {
+        PlotSpec {
+            kind,
+            file: None,
+            title: None,
+            subtitle: None,
+            formats: None,
+            metrics: metrics.iter().map(|s| s.to_string()).collect(),
+            methods: Vec::new(),
+            x: None,
+            show: None,
+            log_y: None,
+            by: None,
+            y_label: None,
+            curves: Vec::new(),
+            rows: None,
+            columns: None,
+            metric: None,
+            scale: None,
+            digits: None,
+            lead: Vec::new(),
+            lead_from: None,
+            labels: BTreeMap::new(),
+        }
+    }
+}
+
 /// A resolved method: a library value ([`crate::methods`]).
 // One value per configured method, built once per run: the size of the
 // largest variant (the BDT options) costs nothing, and boxing it would make

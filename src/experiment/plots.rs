@@ -435,29 +435,7 @@ pub fn make_plots_with(dir: &Path, config: Option<&LoadedConfig>) -> Result<Vec<
 
 pub(super) fn default_plots(c: &Config) -> Vec<PlotSpec> {
     use super::config::MethodKind;
-    let spec = |kind, metrics: &[&str]| PlotSpec {
-        kind,
-        file: None,
-        title: None,
-        subtitle: None,
-        formats: None,
-        metrics: metrics.iter().map(|s| s.to_string()).collect(),
-        methods: Vec::new(),
-        x: None,
-        show: None,
-        log_y: None,
-        by: None,
-        y_label: None,
-        curves: Vec::new(),
-        rows: None,
-        columns: None,
-        metric: None,
-        scale: None,
-        digits: None,
-        lead: Vec::new(),
-        lead_from: None,
-        labels: BTreeMap::new(),
-    };
+    let spec = |kind, metrics: &[&str]| PlotSpec::new(kind, metrics);
     let mut v = Vec::new();
     if c.methods.iter().any(|m| m.kind == MethodKind::Fbt) {
         v.push(spec(PlotKind::Cumulative, &[]));

@@ -786,27 +786,10 @@ fn add_sweep_plots(
                 Method::Fbt { .. } => continue,
             };
             add.push(PlotSpec {
-                kind: PlotKind::Line,
                 file: several.then(|| format!("line_{col}_{t}")),
-                title: None,
-                metrics: vec![metric.to_string()],
                 methods: vs.clone(),
                 x: Some(col.clone()),
-                show: None,
-                log_y: None,
-                by: None,
-                y_label: None,
-                curves: Vec::new(),
-                rows: None,
-                columns: None,
-                metric: None,
-                scale: None,
-                digits: None,
-                lead: Vec::new(),
-                lead_from: None,
-                labels: BTreeMap::new(),
-                subtitle: None,
-                formats: None,
+                ..PlotSpec::new(PlotKind::Line, &[metric])
             });
         }
     }
