@@ -31,8 +31,16 @@
 //!
 //! **Pivot tables** (`kind = "pivot"`, `rows`, `columns`, `metric`, optional
 //! `scale`, `digits`, `lead`, `lead_from`, `labels`): the mean of `metric`
-//! over the results with each (row value, column value) pair, as PNG / SVG,
-//! CSV (scaled means, 10 significant digits) and Markdown.
+//! over the results with each (row value, column value) pair, as a figure,
+//! CSV (scaled means, 10 significant digits), Markdown and LaTeX.
+//!
+//! **Output settings** (`[outputs]`, per plot where noted): `title` /
+//! `subtitle` (on, off, or a text), `formats` (charts PNG + SVG + PDF,
+//! renders PNG by default), `up` and `camera` of renders (default per data
+//! set, [`super::config::DatasetSpec::default_camera`]), `max_per_row`;
+//! method groups are shown by their methods' `label`, a plot's `labels` map
+//! overriding it. [`make_plots_with`] takes these from a config file rather
+//! than the manifest.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
