@@ -230,6 +230,22 @@ fn tiny_fbt_config_runs_through_the_harness() {
     }
     let table = std::fs::read_to_string(dir.join("plots/table.md")).unwrap();
     assert!(table.contains("| projection-q4 |"), "{table}");
+    // The saved registrations carry their per-vertex relative distortion
+    // (√area units): its mean is the row's rel_distortion_mean.
+    let case = rs[0]["case_id"].clone();
+    for m in ["completion", "scale"] {
+        let p = dir.join("meshes").join(&case).join(m).join("result_8.ply");
+        let e = deformlab::mesh::io::read_ply_vertex_scalar(&p, "error")
+            .unwrap()
+            .unwrap_or_else(|| panic!("{m}: no error property"));
+        assert_eq!(
+            e.len(),
+            deformlab::mesh::io::read_mesh(&p).unwrap().n_vertices()
+        );
+        let mean = e.iter().sum::<f64>() / e.len() as f64;
+        let want = get(m, "rel_distortion_mean");
+        assert!((mean - want).abs() <= 1e-6 * want, "{m}: {mean} vs {want}");
+    }
 }
 
 #[test]

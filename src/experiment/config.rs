@@ -66,7 +66,7 @@
 //! [[outputs.plots]]               # one figure, one panel per curve, shared legend
 //! kind = "curve_panels"
 //! curves = ["cumulative_area", "correspondence_euclidean_area"]
-//! [[outputs.plots]]               # rows × columns of metric means (PNG + CSV + Markdown)
+//! [[outputs.plots]]               # rows × columns of metric means (figure + CSV + Markdown + LaTeX)
 //! kind = "pivot"
 //! rows = "q"
 //! columns = "dictionary_kind"
@@ -1082,13 +1082,13 @@ pub enum PlotKind {
     Panels,
     /// Mesh panels coloured by cluster (BDT Fig. 4).
     Clusters,
-    /// Markdown + CSV table of group means (`metrics`; rows also split by
-    /// the `x` column when set).
+    /// Markdown + CSV + LaTeX (booktabs) table of group means (`metrics`;
+    /// rows also split by the `x` column when set).
     Table,
     /// One figure of line-chart panels, one per curve of curves.csv
     /// (`curves`), mean curve per method group, shared legend (FBT Fig. 7).
     CurvePanels,
-    /// A pivot table (PNG + CSV + Markdown): one row per value of the
+    /// A pivot table (figure, CSV, Markdown, LaTeX): one row per value of the
     /// cases.csv column `rows`, one column per value of `columns`, cells the
     /// mean of `metric` over the results with both values (× `scale`,
     /// `digits` decimals); `lead` columns first (FBT Table 2).

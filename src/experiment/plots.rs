@@ -31,8 +31,16 @@
 //!
 //! **Pivot tables** (`kind = "pivot"`, `rows`, `columns`, `metric`, optional
 //! `scale`, `digits`, `lead`, `lead_from`, `labels`): the mean of `metric`
-//! over the results with each (row value, column value) pair, as PNG / SVG,
-//! CSV (scaled means, 10 significant digits) and Markdown.
+//! over the results with each (row value, column value) pair, as a figure,
+//! CSV (scaled means, 10 significant digits), Markdown and LaTeX.
+//!
+//! **Output settings** (`[outputs]`, per plot where noted): `title` /
+//! `subtitle` (on, off, or a text), `formats` (charts PNG + SVG + PDF,
+//! renders PNG by default), `up` and `camera` of renders (default per data
+//! set, [`super::config::DatasetSpec::default_camera`]), `max_per_row`;
+//! method groups are shown by their methods' `label`, a plot's `labels` map
+//! overriding it. [`make_plots_with`] takes these from a config file rather
+//! than the manifest.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -916,7 +924,6 @@ fn pivot(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
     let tex = latex_table(
         &header,
         &shown,
-        1,
         &format!("{md_title}. {caption}.{lead_note}"),
     );
     super::store::write_file(&stem.with_extension("tex"), tex.as_bytes(), true)?;
@@ -1356,7 +1363,7 @@ fn table(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
     md.push_str(&format!("\n{note}\n"));
     let stem = ctx.stem(spec, "table");
     super::store::write_file(&stem.with_extension("md"), md.as_bytes(), true)?;
-    let tex = latex_table(&header, &shown, 1 + head_x.len(), &note);
+    let tex = latex_table(&header, &shown, &note);
     super::store::write_file(&stem.with_extension("tex"), tex.as_bytes(), true)?;
     let bytes = csv_out
         .into_inner()
@@ -1367,14 +1374,23 @@ fn table(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
 
 /// A LaTeX `tabular` with booktabs rules (`\toprule`, `\midrule`,
 /// `\bottomrule`; needs `\usepackage{booktabs}`) of a header and rows of
-/// cells as the Markdown table shows them: the first `text_columns`
-/// columns left-aligned, the others right-aligned, every cell escaped
-/// ([`latex_escape`]); `note` (title and caption) as a comment above it,
-/// for the document's own `\caption`.
-fn latex_table(header: &[String], rows: &[Vec<String>], text_columns: usize, note: &str) -> String {
-    let n = header.len();
-    let spec: String = (0..n)
-        .map(|i| if i < text_columns { 'l' } else { 'r' })
+/// cells as the Markdown table shows them: columns of numbers (and dashes
+/// for missing ones) right-aligned, the others left-aligned, every cell
+/// escaped ([`latex_escape`]); `note` (title and caption) as a comment
+/// above it, for the document's own `\caption`.
+fn latex_table(header: &[String], rows: &[Vec<String>], note: &str) -> String {
+    let numeric = |c: &str| {
+        let t = c.trim();
+        matches!(t, "" | "–" | "-") || t.replace('−', "-").parse::<f64>().is_ok()
+    };
+    let spec: String = (0..header.len())
+        .map(|i| {
+            if rows.iter().all(|r| r.get(i).is_some_and(|c| numeric(c))) {
+                'r'
+            } else {
+                'l'
+            }
+        })
         .collect();
     let line = |cells: &[String]| {
         let c: Vec<String> = cells.iter().map(|c| latex_escape(c)).collect();
@@ -1873,4 +1889,35 @@ fn clusters(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         ));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn latex_cells_are_escaped() {
+        assert_eq!(
+            latex_escape("a_b & 50% #1 {x} $y ~^\\"),
+            "a\\_b \\& 50\\% \\#1 \\{x\\} \\$y \\textasciitilde{}\\textasciicircum{}\\textbackslash{}"
+        );
+        assert_eq!(
+            latex_escape("error (√area units) – |α − 1|"),
+            "error (\\ensuremath{\\surd}area units) -- \\textbar{}\\ensuremath{\\alpha} \\ensuremath{-} 1\\textbar{}"
+        );
+    }
+
+    #[test]
+    fn latex_tables_align_numbers_right() {
+        let header = vec!["method".to_string(), "q".into(), "error".into()];
+        let rows = vec![
+            vec!["auto_x".to_string(), "1".into(), "0.5".into()],
+            vec!["b".to_string(), "2".into(), "–".into()],
+        ];
+        let t = latex_table(&header, &rows, "note\nsecond line");
+        assert!(t.starts_with("% note\n% second line\n\\begin{tabular}{lrr}\n\\toprule\n"));
+        assert!(t.contains("method & q & error \\\\\n\\midrule\n"), "{t}");
+        assert!(t.contains("auto\\_x & 1 & 0.5 \\\\\nb & 2 & -- \\\\\n\\bottomrule\n"));
+        assert!(t.ends_with("\\end{tabular}\n"));
+    }
 }
