@@ -136,7 +136,7 @@ pub(crate) fn time_cpu<T>(reps: usize, mut f: impl FnMut() -> Result<T>) -> Resu
 
 /// CPU time (s) used so far by the live threads of this process, from
 /// `/proc/self/task/*/schedstat` (Linux); `None` where unavailable.
-pub(crate) fn cpu_seconds() -> Option<f64> {
+pub fn cpu_seconds() -> Option<f64> {
     let mut ns = 0u64;
     let mut any = false;
     for entry in std::fs::read_dir("/proc/self/task").ok()?.flatten() {

@@ -9,6 +9,7 @@ mod plot;
 mod progress;
 mod run;
 mod transfer;
+mod weights;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -133,6 +134,9 @@ pub enum Command {
     /// Select (or reuse) key points on the source, fit their transforms and
     /// transfer every deformed pose to a target mesh (BDT Sec. 3.6).
     Transfer(Box<transfer::TransferArgs>),
+    /// Bounded biharmonic weights (BDT Eq. 1) of one mesh for given or
+    /// sampled handles, with time, active-set iterations and KKT residual.
+    Weights(weights::WeightsArgs),
     /// Run experiment configs (TOML): cases × methods, resumable, sharded;
     /// writes manifest.json, cases.csv, curves.csv, summary.csv and plots.
     Run(run::RunArgs),
@@ -172,6 +176,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         } => bench::run(&groups, quick, self::threads(threads), exact_full),
         Command::Keypoints(a) => keypoints::run(a),
         Command::Transfer(a) => transfer::run(*a),
+        Command::Weights(a) => weights::run(a),
         Command::Run(a) => run::run(a),
         Command::Merge(a) => merge::run(a),
         Command::Plot(a) => plot::run(a),

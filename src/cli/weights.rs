@@ -1,0 +1,178 @@
+//! `deformlab weights`: bounded biharmonic weights (BDT Eq. 1) of one mesh
+//! for given or farthest-point-sampled handles, with the solver's figures
+//! (time, active-set iterations, KKT residual) and optionally the weights as
+//! CSV. It is how the size limit of the bounded weights is measured
+//! (README, "Large meshes").
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+
+use clap::Args;
+
+use deformlab::mesh::io::write_atomic;
+use deformlab::mesh::repair::DefectPolicy;
+use deformlab::ops::{farthest_point_sampling, FpsMetric};
+use deformlab::skin::bbw::{BbwOptions, Biharmonic, WeightMode};
+use deformlab::{Error, Result};
+
+use deformlab::bench::cpu_seconds;
+
+use super::keypoints::load_checked;
+
+/// `deformlab weights` arguments.
+#[derive(Args, Debug)]
+#[command(after_help = "Examples:\n  \
+    deformlab weights ../shared/data/faust/tr_reg_001.ply --handles 10\n  \
+    deformlab weights mesh.off --handle-vertices 12,400,977 --mode per-handle --out W.csv\n\n\
+    Prints the vertex and handle counts, the wall and CPU time of the precomputation\n\
+    (L, M, Q = L M⁻¹ L) and of the weights, the active-set iterations (per handle, and\n\
+    of the coupled support iteration) and the KKT residual. With --out, W.csv has one\n\
+    row per vertex and one column per handle (not overwritten unless --force).")]
+pub struct WeightsArgs {
+    /// The mesh (.ply, .off, .obj, .vert/.tri).
+    pub mesh: PathBuf,
+    /// Number of handles, placed by Euclidean farthest point sampling
+    /// (seeded), 1..=1000 [default: 10].
+    #[arg(long, conflicts_with = "handle_vertices", value_parser = Handles::parse)]
+    pub handles: Option<usize>,
+    /// Handle vertices (0-based, comma-separated) instead of sampling.
+    #[arg(long, value_delimiter = ',')]
+    pub handle_vertices: Option<Vec<usize>>,
+    /// Seed of the first farthest-point sample [default: 0].
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Which weights: coupled = BDT Eq. 1 (bounds and partition of unity in
+    /// one problem); per-handle = each handle bounded, rows normalised
+    /// [default: the library's, coupled].
+    #[arg(long, value_enum)]
+    pub mode: Option<WeightMode>,
+    /// Active-set iterations allowed, 1..=100000 [default: the library's, 200].
+    #[arg(long, value_parser = MaxIter::parse)]
+    pub max_iter: Option<usize>,
+    /// Write the weights (n × handles) as CSV.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Overwrite --out if it exists.
+    #[arg(long)]
+    pub force: bool,
+    /// Refuse meshes with defects that change results.
+    #[arg(long)]
+    pub strict: bool,
+    /// Repair duplicate / zero-area faces and winding first.
+    #[arg(long, conflicts_with = "strict")]
+    pub repair: bool,
+}
+
+type Handles = deformlab::experiment::range::Int<1, 1000>;
+type MaxIter = deformlab::experiment::range::Int<1, 100_000>;
+
+/// Handles sampled when neither `--handles` nor `--handle-vertices` is given.
+pub const DEFAULT_HANDLES: usize = 10;
+
+pub fn run(a: WeightsArgs) -> Result<ExitCode> {
+    let policy = DefectPolicy {
+        strict: a.strict,
+        repair: a.repair,
+    };
+    if let Some(out) = &a.out {
+        if out.exists() && !a.force {
+            return Err(Error::invalid(format!(
+                "{}: exists (give --force to overwrite)",
+                out.display()
+            )));
+        }
+    }
+    let mesh = load_checked(&a.mesh, policy, &mut Vec::new())?;
+    let n = mesh.n_vertices();
+    let handles = match &a.handle_vertices {
+        Some(h) => {
+            if let Some(&bad) = h.iter().find(|&&v| v >= n) {
+                return Err(Error::invalid(format!(
+                    "--handle-vertices: vertex {bad} out of range ({} has {n} vertices)",
+                    a.mesh.display()
+                )));
+            }
+            h.clone()
+        }
+        None => {
+            let k = a.handles.unwrap_or(DEFAULT_HANDLES);
+            if k > n {
+                return Err(Error::invalid(format!(
+                    "--handles {k}: {} has only {n} vertices",
+                    a.mesh.display()
+                )));
+            }
+            farthest_point_sampling(&mesh, k, FpsMetric::Euclidean, a.seed)?
+        }
+    };
+    let d = BbwOptions::default();
+    let opts = BbwOptions {
+        mode: a.mode.unwrap_or(d.mode),
+        max_iter: a.max_iter.unwrap_or(d.max_iter),
+        ..d
+    };
+    let progress = super::progress::on_terminal();
+    let (t0, c0) = (Instant::now(), cpu_seconds());
+    let bih = Biharmonic::new(&mesh)?;
+    let (t1, c1) = (Instant::now(), cpu_seconds());
+    let report = bih.weights_with_report(&handles, &opts)?;
+    let (t2, c2) = (Instant::now(), cpu_seconds());
+    drop(progress);
+    let cpu = |a: Option<f64>, b: Option<f64>| match (a, b) {
+        (Some(a), Some(b)) => format!("{:.2} s CPU", b - a),
+        _ => "CPU n/a".to_string(),
+    };
+    println!("mesh: {} ({n} vertices)", a.mesh.display());
+    println!("handles: {} {:?}", handles.len(), handles);
+    println!(
+        "mode: {:?}, max_iter {}, tol {:.0e}",
+        opts.mode, opts.max_iter, opts.tol
+    );
+    println!(
+        "precompute (L, M, Q): {:.2} s wall, {}",
+        (t1 - t0).as_secs_f64(),
+        cpu(c0, c1)
+    );
+    println!(
+        "weights: {:.2} s wall, {} (unbounded {:.2} s, per-handle active sets {:.2} s, coupled {:.2} s)",
+        (t2 - t1).as_secs_f64(),
+        cpu(c1, c2),
+        report.seconds[0],
+        report.seconds[1],
+        report.seconds[2]
+    );
+    if !report.handle_iterations.is_empty() {
+        println!(
+            "per-handle active-set iterations: {:?} (max {})",
+            report.handle_iterations,
+            report.handle_iterations.iter().max().copied().unwrap_or(0)
+        );
+    }
+    if opts.mode == WeightMode::Coupled {
+        println!(
+            "coupled support iterations: {} (last system {} unknowns)",
+            report.coupled_iterations, report.coupled_unknowns
+        );
+    }
+    println!(
+        "KKT residual {:.2e}, converged {}, numeric factorisations {}",
+        report.kkt_residual, report.converged, report.factorizations
+    );
+    if let Some(out) = &a.out {
+        let w = &report.weights;
+        let mut text = String::with_capacity(w.nrows() * w.ncols() * 20);
+        for i in 0..w.nrows() {
+            for k in 0..w.ncols() {
+                if k > 0 {
+                    text.push(',');
+                }
+                text.push_str(&format!("{:.17e}", w[(i, k)]));
+            }
+            text.push('\n');
+        }
+        write_atomic(out, text.as_bytes())?;
+        println!("weights written to {}", out.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,119 @@
+//! `deformlab weights`: the CLI's bounded biharmonic weights equal the
+//! library's (same defaults), satisfy Eq. 1's constraints, and bad input is
+//! a clear error.
+
+mod common;
+
+use common::deformlab;
+use deformlab::mesh::io::write_ply as write_mesh;
+use deformlab::mesh::primitives::icosphere;
+use deformlab::skin::bbw::{BbwOptions, Biharmonic, WeightMode};
+
+fn read_csv(path: &std::path::Path) -> Vec<Vec<f64>> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect()
+}
+
+#[test]
+fn cli_weights_equal_the_library_and_meet_eq1() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = icosphere(3);
+    let path = dir.path().join("sphere.ply");
+    write_mesh(&path, &mesh).unwrap();
+    let handles = [0usize, 200, 400, 600];
+    let csv = dir.path().join("w.csv");
+    let out = deformlab()
+        .arg("weights")
+        .arg(&path)
+        .args(["--handle-vertices", "0,200,400,600", "--out"])
+        .arg(&csv)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("mode: Coupled"), "{stdout}");
+    assert!(stdout.contains("converged true"), "{stdout}");
+    let w = read_csv(&csv);
+    assert_eq!(w.len(), mesh.n_vertices());
+    // The library with its defaults (the CLI passes no option).
+    let lib = Biharmonic::new(&mesh)
+        .unwrap()
+        .weights(&handles, &BbwOptions::default())
+        .unwrap();
+    assert_eq!(BbwOptions::default().mode, WeightMode::Coupled);
+    let mut max_diff: f64 = 0.0;
+    for (i, row) in w.iter().enumerate() {
+        assert_eq!(row.len(), handles.len());
+        let sum: f64 = row.iter().sum();
+        assert!((sum - 1.0).abs() < 1e-12, "row {i} sums to {sum}");
+        assert!(
+            row.iter().all(|&x| (0.0..=1.0).contains(&x)),
+            "row {i}: {row:?}"
+        );
+        for (k, &x) in row.iter().enumerate() {
+            max_diff = max_diff.max((x - lib[(i, k)]).abs());
+        }
+    }
+    assert!(
+        max_diff < 1e-15,
+        "CLI and library weights differ by {max_diff}"
+    );
+    for (k, &h) in handles.iter().enumerate() {
+        for (c, &x) in w[h].iter().enumerate() {
+            assert_eq!(x, if c == k { 1.0 } else { 0.0 }, "handle {h}");
+        }
+    }
+    // Bounded weights are local: on a sphere with 4 spread handles, some
+    // weights are exactly zero (an unbounded solution would be negative).
+    assert!(w.iter().flatten().any(|&x| x == 0.0));
+
+    // The same file again: refused without --force.
+    let out = deformlab()
+        .arg("weights")
+        .arg(&path)
+        .args(["--handles", "3", "--out"])
+        .arg(&csv)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--force"));
+}
+
+#[test]
+fn cli_weights_refuses_bad_handles_and_paths() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("sphere.ply");
+    write_mesh(&path, &icosphere(2)).unwrap();
+    let out = deformlab()
+        .arg("weights")
+        .arg(&path)
+        .args(["--handle-vertices", "0,99999"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(err.contains("vertex 99999 out of range"), "{err}");
+    assert!(err.contains("sphere.ply"), "{err}");
+    let out = deformlab()
+        .arg("weights")
+        .arg(&path)
+        .args(["--handles", "0"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--handles"));
+    let out = deformlab()
+        .arg("weights")
+        .arg(dir.path().join("missing.ply"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("missing.ply"));
+}
