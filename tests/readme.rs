@@ -134,3 +134,280 @@ fn readme_commands_and_configs_exist() {
         }
     }
 }
+
+/// `results/<experiment>/summary.csv` as (method, metric) → (mean, median).
+fn summary(experiment: &str) -> std::collections::HashMap<(String, String), (f64, f64)> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let path = root.join("results").join(experiment).join("summary.csv");
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (method, metric, mean, median) = (col("method"), col("metric"), col("mean"), col("median"));
+    lines
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            let num = |i: usize| f[i].parse::<f64>().unwrap_or(f64::NAN);
+            (
+                (f[method].to_string(), f[metric].to_string()),
+                (num(mean), num(median)),
+            )
+        })
+        .collect()
+}
+
+/// The README with every run of whitespace (line breaks, indentation) as
+/// one space, so that a sentence can be looked up across its line wraps.
+fn readme_flat() -> String {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("README.md")).unwrap();
+    text.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+fn assert_states(readme: &str, expected: &str) {
+    let expected = expected.split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(
+        readme.contains(&expected),
+        "README does not state the committed results: expected the text\n  {expected}\n\
+         (numbers from results/*/summary.csv; regenerate the README's figures)"
+    );
+}
+
+/// The headline numbers the README quotes from the default suite are those
+/// of the committed `results/` (formatted as the README prints them):
+/// regenerating the results without updating these sentences fails here.
+/// Numbers measured on real data or by benchmarks are not in the default
+/// suite and are not checked.
+#[test]
+fn readme_result_numbers_match_the_committed_results() {
+    let readme = readme_flat();
+    let mean = |s: &std::collections::HashMap<(String, String), (f64, f64)>, m: &str, k: &str| {
+        s.get(&(m.to_string(), k.to_string()))
+            .unwrap_or_else(|| panic!("summary has no {m} / {k}"))
+            .0
+    };
+
+    let s = summary("fig7");
+    assert_states(
+        &readme,
+        &format!(
+            "BDT Fig. 7: fit error (unit sphere) {:.4} without E_diff, {:.4} with it",
+            mean(&s, "without-E_diff", "fit_error_unit"),
+            mean(&s, "with-E_diff", "fit_error_unit")
+        ),
+    );
+
+    let s = summary("fig6");
+    let sel: Vec<String> = [2, 4, 6, 8, 10]
+        .iter()
+        .map(|k| format!("{:.3}", mean(&s, &format!("k{k}"), "selection_error")))
+        .collect();
+    assert_states(
+        &readme,
+        &format!(
+            "BDT Fig. 6: selection error {} with 2 / 4 / 6 / 8 / 10 key points",
+            sel.join(" / ")
+        ),
+    );
+
+    // BDT Fig. 14 table.
+    let s = summary("fig14");
+    for (label, m, kp) in [
+        ("automatic (BDT, unit-sphere frame)", "automatic", true),
+        (
+            "automatic, handle-relative frame",
+            "auto-handle-relative",
+            true,
+        ),
+        ("automatic, raw frame (ablation)", "auto-raw-frame", true),
+        (
+            "automatic, Eq. 1 coupled weights (ablation)",
+            "automatic-coupled",
+            true,
+        ),
+        ("random user", "random-user", true),
+        ("extremity user", "extremity-user", true),
+        ("Sumner DT, same markers", "sumner-markers", true),
+        (
+            "Sumner DT oracle (full correspondence)",
+            "sumner-oracle",
+            false,
+        ),
+        ("cage DT, same markers", "cage", true),
+        ("identity (B unchanged)", "identity", false),
+    ] {
+        let strain = mean(&s, m, "edge_strain_p99");
+        let strain = if strain == 0.0 {
+            "0".to_string()
+        } else {
+            format!("{strain:.2}")
+        };
+        let kps = if kp {
+            format!("{}", mean(&s, m, "n_keypoints"))
+        } else {
+            "–".to_string()
+        };
+        assert_states(
+            &readme,
+            &format!(
+                "| {label} | {:.4} | {:.4} | {:.3} | {strain} | {kps} |",
+                mean(&s, m, "err_mean_area"),
+                mean(&s, m, "err_mean_area_rigid"),
+                mean(&s, m, "within_005_area"),
+            ),
+        );
+    }
+
+    // FBT Table 2, paper layout (synthetic).
+    let s = summary("fbt-table2");
+    let col = |prefix: &str| {
+        [1, 2, 4, 8]
+            .iter()
+            .map(|q| {
+                format!(
+                    "{:.2}",
+                    100.0 * mean(&s, &format!("{prefix}-q{q}"), "rel_distortion_max")
+                )
+            })
+            .collect::<Vec<_>>()
+            .join(" / ")
+    };
+    assert_states(
+        &readme,
+        &format!(
+            "LBO m = 10 {}, skeleton {}, one example {};",
+            col("lbo10"),
+            col("skel"),
+            col("one")
+        ),
+    );
+
+    // FBT Fig. 7.
+    let s = summary("fbt-fig7");
+    let row = |prefix: &str, metric: &str| {
+        [1, 2, 4, 8]
+            .iter()
+            .map(|q| format!("{:.4}", mean(&s, &format!("{prefix}q{q}"), metric)))
+            .collect::<Vec<_>>()
+            .join(" / ")
+    };
+    assert_states(
+        &readme,
+        &format!(
+            "skeleton pipeline {}, LBO only {} (correspondence error, Euclidean, {} and {})",
+            row("", "rel_distortion_mean"),
+            row("lbo-", "rel_distortion_mean"),
+            row("", "corr_error_mean_euclidean"),
+            row("lbo-", "corr_error_mean_euclidean"),
+        ),
+    );
+    assert_states(
+        &readme,
+        &format!(
+            "scores {:.3} ({:.3} after its best rigid alignment onto the truth) and a \
+             correspondence error of {:.3}",
+            mean(&s, "q1", "floor_distortion_mean"),
+            mean(&s, "q1", "floor_distortion_mean_aligned"),
+            mean(&s, "q1", "floor_corr_error_mean_euclidean"),
+        ),
+    );
+    assert_states(
+        &readme,
+        &format!(
+            "(q = 8: {:.4} against {:.4} raw;",
+            mean(&s, "q8", "rel_distortion_mean_aligned"),
+            mean(&s, "q8", "rel_distortion_mean"),
+        ),
+    );
+    let failures = |prefix: &str| {
+        [1, 2, 4, 8]
+            .iter()
+            .map(|q| {
+                let m = format!("{prefix}q{q}");
+                let n = s[&(m.clone(), "gross_failure".to_string())];
+                format!("{}", (n.0 * 50.0).round())
+            })
+            .collect::<Vec<_>>()
+            .join(" / ")
+    };
+    assert_states(
+        &readme,
+        &format!(
+            "synthetic skeleton {} of 50, LBO only {};",
+            failures(""),
+            failures("lbo-")
+        ),
+    );
+
+    let s = summary("fbt-fig7-baselines");
+    assert_states(
+        &readme,
+        &format!(
+            "FBT {:.4}, Der et al. {:.4} (on the same skeleton clusters), Amberg optimal-step \
+             NICP {:.4}",
+            mean(&s, "FBT", "rel_distortion_mean"),
+            mean(&s, "Der-et-al", "rel_distortion_mean"),
+            mean(&s, "Amberg-NICP", "rel_distortion_mean"),
+        ),
+    );
+
+    let s = summary("fbt-fig4-5");
+    assert_states(
+        &readme,
+        &format!(
+            "α = {:.3} / {:.3} for targets scaled by 1.5 / 0.7 and {:.3} for the unscaled \
+             target (synthetic)",
+            mean(&s, "scale-1.5", "alpha"),
+            mean(&s, "scale-0.7", "alpha"),
+            mean(&s, "scale-1.5", "alpha_unscaled"),
+        ),
+    );
+
+    // FBT Table 1 timings (medians, ms).
+    let s = summary("fbt-table1");
+    let ms = |m: &str, k: &str| 1000.0 * s[&(m.to_string(), k.to_string())].1;
+    let it = |q: &str| {
+        ["init", "main", "rich"]
+            .iter()
+            .map(|st| format!("{:.2}", ms(q, &format!("seconds_iteration_{st}"))))
+            .collect::<Vec<_>>()
+            .join(" / ")
+    };
+    assert_states(
+        &readme,
+        &format!(
+            "one E_total iteration costs {} ms (q = 4) and {} ms (q = 8) in the init / main / \
+             rich dictionary, the full schedule {:.1} / {:.1} ms",
+            it("q4"),
+            it("q8"),
+            ms("q4", "seconds_solve"),
+            ms("q8", "seconds_solve"),
+        ),
+    );
+
+    let s = summary("auto-synthetic");
+    assert_states(
+        &readme,
+        &format!(
+            "BDT {:.4} with automatic target points and {:.4} with the true ones (Sumner DT \
+             {:.4} vs {:.4}; {:.4} vs {:.4} after rigid alignment)",
+            mean(&s, "bdt-auto-targets", "err_mean_area"),
+            mean(&s, "bdt-true-targets", "err_mean_area"),
+            mean(&s, "sumner-auto-targets", "err_mean_area"),
+            mean(&s, "sumner-true-targets", "err_mean_area"),
+            mean(&s, "sumner-auto-targets", "err_mean_area_rigid"),
+            mean(&s, "sumner-true-targets", "err_mean_area_rigid"),
+        ),
+    );
+    let s = summary("auto-noise");
+    assert_states(
+        &readme,
+        &format!(
+            "BDT {:.4} → {:.4} and Sumner DT {:.4} → {:.4} as the radius goes from 0 to 5 % √area",
+            mean(&s, "bdt-r0-s0", "err_mean_area_rigid"),
+            mean(&s, "bdt-r5-s0", "err_mean_area_rigid"),
+            mean(&s, "sumner-r0-s0", "err_mean_area_rigid"),
+            mean(&s, "sumner-r5-s0", "err_mean_area_rigid"),
+        ),
+    );
+}
