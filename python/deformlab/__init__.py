@@ -50,6 +50,7 @@ __all__ = [
     "complete",
     "run",
     "load_results",
+    "synthetic",
     "TRANSFER_METHODS",
     "COMPLETION_SOLVERS",
 ]
@@ -533,6 +534,32 @@ def complete(
     vertex), ``distance`` (those distances), ``alpha``, ``partial_residual``.
     """
     return model.complete(partial_target, features, solver)
+
+
+# ---------------------------------------------------------------------------
+# Data and experiments
+
+
+def synthetic(
+    subjects: Optional[int] = None,
+    poses: Optional[int] = None,
+    resolution: Optional[int] = None,
+    seed: Optional[int] = None,
+) -> Dict[str, Any]:
+    """The synthetic set of ``deformlab gen``, in memory (exact ground truth).
+
+    An articulated creature, ``subjects`` × ``poses`` meshes of one
+    connectivity (vertex ``i`` of every mesh corresponds); ``resolution``
+    1..5 (1: ~1.7k vertices, 2: ~6.7k, the default). ``None``: the library's
+    defaults (6 subjects, 8 poses, resolution 2, seed 0). Returns
+    ``{"V": V[subject][pose] float64 (n, 3), "F": int64 (m, 3), "labels":
+    int64 (n,) bone of each vertex}``; pose 0 is the reference pose.
+    """
+    for name, x in (("subjects", subjects), ("poses", poses), ("resolution", resolution), ("seed", seed)):
+        if x is not None and (not isinstance(x, (int, np.integer)) or isinstance(x, bool) or x < 0):
+            raise ValueError(f"{name}: expected a non-negative integer, got {x!r}")
+    V, F, labels = _native.synthetic(subjects, poses, resolution, seed)
+    return {"V": V, "F": F, "labels": np.asarray(labels, dtype=np.int64)}
 
 
 # ---------------------------------------------------------------------------

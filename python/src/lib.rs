@@ -19,6 +19,7 @@ use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
+use deformlab::data::synthetic::FaustStyle;
 use deformlab::experiment::config::{Epsilon, MaxKeypoints, NCandidates};
 use deformlab::experiment::{run_configs, LoadOptions, RunOptions};
 use deformlab::mesh::validate::{DefectReport, Offenders};
@@ -1112,6 +1113,38 @@ impl PyFbtModel {
     }
 }
 
+/// The synthetic set (`deformlab gen`): `(vertices[subject][pose], F, labels)`.
+#[pyfunction]
+#[pyo3(signature = (subjects=None, poses=None, resolution=None, seed=None))]
+#[allow(clippy::type_complexity)]
+fn synthetic<'py>(
+    py: Python<'py>,
+    subjects: Option<usize>,
+    poses: Option<usize>,
+    resolution: Option<u32>,
+    seed: Option<u64>,
+) -> PyResult<(
+    Vec<Vec<Bound<'py, PyArray2<f64>>>>,
+    Bound<'py, PyArray2<i64>>,
+    Vec<usize>,
+)> {
+    let d = FaustStyle::default();
+    let cfg = FaustStyle {
+        subjects: subjects.unwrap_or(d.subjects),
+        poses: poses.unwrap_or(d.poses),
+        resolution: resolution.unwrap_or(d.resolution),
+        seed: seed.unwrap_or(d.seed),
+        ..d
+    };
+    let set = py.detach(|| cfg.generate()).map_err(py_err)?;
+    let verts = set
+        .meshes
+        .iter()
+        .map(|s| s.iter().map(|m| points_array(py, m.vertices())).collect())
+        .collect();
+    Ok((verts, faces_array(py, set.meshes[0][0].faces()), set.labels))
+}
+
 // ---------------------------------------------------------------------------
 // Experiments
 
@@ -1193,6 +1226,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(transfer, m)?)?;
     m.add_function(wrap_pyfunction!(target_correspondence, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
+    m.add_function(wrap_pyfunction!(synthetic, m)?)?;
     m.add_class::<PyFbtModel>()?;
     Ok(())
 }
