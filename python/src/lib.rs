@@ -173,12 +173,14 @@ fn parse_enum<T: ValueEnum>(name: &str, s: &str) -> PyResult<T> {
 // ---------------------------------------------------------------------------
 // Mesh I/O and inspection
 
+/// `(V, F)` as numpy arrays.
+type MeshArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>);
+/// `(λ, Φ)` as numpy arrays.
+type Eigen<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray2<f64>>);
+
 /// Reads a mesh file (PLY, OFF, OBJ, TOSCA .vert/.tri): `(V, F)`.
 #[pyfunction]
-fn read_mesh<'py>(
-    py: Python<'py>,
-    path: PathBuf,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>)> {
+fn read_mesh<'py>(py: Python<'py>, path: PathBuf) -> PyResult<MeshArrays<'py>> {
     let m = py
         .detach(|| deformlab::mesh::io::read_mesh(&path))
         .map_err(py_err)?;
@@ -346,7 +348,7 @@ fn lbo_eigenpairs<'py>(
     f: PyReadonlyArray2<'_, i64>,
     k: i64,
     seed: Option<u64>,
-) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray2<f64>>)> {
+) -> PyResult<Eigen<'py>> {
     let m = mesh("mesh", &v, &f)?;
     let n = m.n_vertices();
     if k < 1 || k as u64 > n as u64 {
