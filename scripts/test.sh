@@ -2,7 +2,9 @@
 # The test suite of deformlab: the Rust tests, then the Python binding built
 # into a virtual environment and its pytest tests.
 #
-#   scripts/test.sh            # both
+#   scripts/test.sh            # both (the README's test command, what CI runs)
+#   scripts/test.sh rust       # only the Rust tests
+#   scripts/test.sh python     # only the Python part (build, install, pytest)
 #   DEFORMLAB_VENV=DIR scripts/test.sh   # another venv (default below)
 #
 # Needs a Rust toolchain, python3 (with venv and pip) and network access to
@@ -17,8 +19,21 @@ cd "$(dirname "$0")/.."
 root=$PWD
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$root/target}"
 
-echo "== Rust: cargo test --release"
-cargo test --locked --release
+part="${1:-all}"
+case "$part" in
+  all | rust | python) ;;
+  *) echo "usage: scripts/test.sh [rust|python]" >&2; exit 2 ;;
+esac
+
+if [ "$part" != python ]; then
+  echo "== Rust: cargo test --release"
+  cargo test --locked --release
+else
+  # The CLI binary the equality tests compare with (built by the line above
+  # in a full run).
+  cargo build --locked --release
+fi
+[ "$part" = rust ] && exit 0
 
 echo "== Python: build the binding (maturin) into a venv"
 venv="${DEFORMLAB_VENV:-${XDG_CACHE_HOME:-$HOME/.cache}/deformlab/venv}"

@@ -152,7 +152,7 @@ fn readme_test_command_covers_rust_and_python_and_ci_runs_it() {
     );
     let script = std::fs::read_to_string(root.join("scripts/test.sh")).unwrap();
     let rust = script
-        .find("\ncargo test --locked --release")
+        .find("cargo test --locked --release")
         .expect("scripts/test.sh runs cargo test --release");
     let python = script
         .find("-m pytest")
