@@ -1,6 +1,6 @@
 """BDT deformation transfer on the synthetic set, shown in polyscope if installed.
 
-    python python/examples/bdt_transfer.py [--no-show] [--out DIR]
+    python python/examples/bdt_transfer.py [--no-show] [--out DIR] [--screenshot FILE.png]
 
 Subject 0 (rest pose A and two deformed poses A′) is transferred to
 subject 1 (B) with automatically selected key points; the synthetic set
@@ -21,6 +21,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--no-show", action="store_true", help="do not open the polyscope viewer")
     ap.add_argument("--out", help="write B′ as PLY files into this folder")
+    ap.add_argument("--screenshot", help="render the scene headless (EGL) into this PNG instead of a window")
     args = ap.parse_args()
 
     s = dl.synthetic(subjects=2, poses=3, resolution=1)
@@ -49,10 +50,17 @@ def main() -> int:
     except ImportError:
         print("polyscope is not installed (pip install polyscope): skipping the viewer")
         return 0
+    import os
+
+    if not args.screenshot and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        print("no display: skipping the viewer (--screenshot FILE.png renders headless)")
+        return 0
     try:
+        if args.screenshot:
+            ps.set_allow_headless_backends(True)
         ps.init()
-    except Exception as e:  # no display, no OpenGL
-        print(f"polyscope could not open a window ({e}): skipping the viewer")
+    except Exception as e:  # no OpenGL
+        print(f"polyscope could not start ({e}): skipping the viewer")
         return 0
     width = np.ptp(V[0][0][:, 0]) * 1.3
     shift = lambda X, k: X + np.array([k * width, 0, 0])  # noqa: E731
@@ -64,7 +72,15 @@ def main() -> int:
     ps.register_surface_mesh("truth", shift(V[1][1], 4), F)
     kp = np.asarray(r["target_keypoints"])
     ps.register_point_cloud("key points on B", shift(V[1][0][kp], 2), radius=0.01)
-    ps.show()
+    ps.set_ground_plane_mode("none")
+    lo, hi = V[0][0].min(axis=0), V[0][0].max(axis=0)
+    centre = np.array([2 * width + 0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])])
+    ps.look_at(tuple(centre + np.array([0.0, 0.15 * width, 4.2 * width])), tuple(centre))
+    if args.screenshot:
+        ps.screenshot(args.screenshot, transparent_bg=False)
+        print(f"wrote {args.screenshot}")
+    else:
+        ps.show()
     return 0
 
 
