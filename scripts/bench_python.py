@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Binding overhead: bbw and transfer from Python vs the CLI on a FAUST mesh.
 
-    python scripts/bench_python.py [--reps 3] [--data DIR] [--cli PATH]
+    python scripts/bench_python.py [--reps 3] [--auto] [--data DIR] [--cli PATH]
 
 A benchmark, not a test: it prints medians of several runs and `uptime`
 (the machine may be shared). FAUST: A = tr_reg_001 (subject 0), A′ =
@@ -49,6 +49,8 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--keypoints", type=int, default=6, help="key points (FPS on A)")
+    ap.add_argument("--auto", action="store_true",
+                    help="also time transfer with automatic key point selection (Algorithm 1, fast mode)")
     ap.add_argument("--data", default=os.environ.get("DEFORMLAB_DATA") or str(ROOT.parent / "shared" / "data"))
     ap.add_argument("--cli", default=os.environ.get("DEFORMLAB_CLI") or str(ROOT / "target" / "release" / "deformlab"))
     a = ap.parse_args()
@@ -129,8 +131,42 @@ def main() -> int:
     print(f"  max |B'_python - B'_cli| = {diff:.3e}")
     print(f"bbw on B, CLI (seconds.target_weights): {fmt(cli_weights)}")
     print(f"bbw on B, Python dl.bbw             : {fmt(py_bbw)}  W {W.shape}")
+    if a.auto:
+        auto_cli, auto_py = [], []
+        with tempfile.TemporaryDirectory() as tmp:
+            for r in range(a.reps):
+                out = Path(tmp) / f"auto{r}"
+                t = time.perf_counter()
+                subprocess.run(
+                    [a.cli, "transfer", "--source", files["001"], "--deformed", files["003"], files["007"],
+                     "--target", files["012"], "--same-connectivity", "--out", out],
+                    capture_output=True, text=True, check=True,
+                )
+                auto_cli.append(time.perf_counter() - t)
+            code = (
+                "import sys, time, deformlab as dl\n"
+                "A = dl.read_mesh(sys.argv[1]); P = [dl.read_mesh(p)[0] for p in sys.argv[2:4]]\n"
+                "B = dl.read_mesh(sys.argv[4])\n"
+                "t = time.perf_counter(); r = dl.transfer(A, P, B)\n"
+                "print(r['keypoints']); print(time.perf_counter() - t)\n"
+            )
+            for r in range(a.reps):
+                p = subprocess.run(
+                    [sys.executable, "-c", code, files["001"], files["003"], files["007"], files["012"]],
+                    capture_output=True, text=True, check=True,
+                )
+                auto_py.append(float(p.stdout.split()[-1]))
+            cli_kp = _keypoints(Path(tmp) / f"auto{a.reps - 1}" / "keypoints.csv")
+        print(f"transfer with automatic selection, CLI process wall : {fmt(auto_cli)}")
+        print(f"transfer with automatic selection, Python (fresh)   : {fmt(auto_py)}")
+        print(f"  key points: CLI {cli_kp}, Python {p.stdout.splitlines()[0]}")
     print(f"uptime after: {uptime()}")
     return 0
+
+
+def _keypoints(path: Path):
+    rows = path.read_text().splitlines()[1:]
+    return [int(r.split(",")[0]) for r in rows]
 
 
 if __name__ == "__main__":
