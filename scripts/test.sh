@@ -36,7 +36,7 @@ fi
 [ "$part" = rust ] && exit 0
 
 echo "== Python: build the binding (maturin) into a venv"
-venv="${DEFORMLAB_VENV:-${XDG_CACHE_HOME:-$HOME/.cache}/deformlab/venv}"
+venv="${DEFORMLAB_VENV:-${XDG_CACHE_HOME:-${HOME:-/tmp}/.cache}/deformlab/venv}"
 if [ ! -x "$venv/bin/python" ]; then
   python3 -m venv "$venv"
 fi
