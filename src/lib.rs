@@ -55,3 +55,6 @@ pub type Point = nalgebra::Point3<f64>;
 pub type Vec3 = nalgebra::Vector3<f64>;
 /// 3×3 matrices (deformation gradients, rotations).
 pub type Mat3 = nalgebra::Matrix3<f64>;
+
+/// The crate version (`deformlab --version`, `deformlab.__version__`).
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");

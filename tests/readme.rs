@@ -411,3 +411,46 @@ fn readme_result_numbers_match_the_committed_results() {
         ),
     );
 }
+
+/// The README's test command is `scripts/test.sh`, which runs the Rust
+/// tests and then the Python tests; CI (`.ci/run`) runs exactly it.
+#[test]
+fn readme_test_command_covers_rust_and_python_and_ci_runs_it() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("README.md")).unwrap();
+    let block = text
+        .split("```sh")
+        .nth(1)
+        .and_then(|b| b.split("```").next())
+        .expect("the README's first shell block (the two commands)");
+    assert!(
+        block.lines().any(|l| l.trim() == "scripts/test.sh"),
+        "the README's test command must be scripts/test.sh"
+    );
+    let script = std::fs::read_to_string(root.join("scripts/test.sh")).unwrap();
+    let rust = script
+        .find("cargo test --locked --release")
+        .expect("scripts/test.sh runs cargo test --release");
+    let python = script
+        .find("-m pytest")
+        .expect("scripts/test.sh runs pytest");
+    assert!(rust < python, "the Rust tests run first");
+    assert!(
+        script.contains("maturin"),
+        "the module is built with maturin"
+    );
+    let ci = std::fs::read_to_string(root.join(".ci/run")).unwrap();
+    assert!(
+        ci.lines()
+            .any(|l| l.contains("scripts/test.sh") && !l.trim_start().starts_with('#')),
+        ".ci/run must run the README's test command, scripts/test.sh"
+    );
+    assert!(
+        !ci.contains("cargo test --locked --release 2>&1"),
+        ".ci/run must not run the Rust tests apart from the README's command"
+    );
+    assert!(
+        ci.contains("--manifest-path python/Cargo.toml"),
+        ".ci/run checks the Python crate's formatting and lints"
+    );
+}

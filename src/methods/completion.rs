@@ -286,6 +286,67 @@ impl CompletionProblem {
         })
     }
 
+    /// The completion of a given partial target (any connectivity, no
+    /// ground truth) from `examples` (reference first), with the feature
+    /// pairs `(reference vertex, partial-target vertex)` and
+    /// `features.circles` geodesic circles per pair up to
+    /// `features.radius · √area` (`features.features` is not used: the pairs
+    /// are given). Every [`CompletionSolver`] solves it as it solves
+    /// [`CompletionProblem::new`]'s. Without a truth, [`Self::target`] is
+    /// the partial target itself (its `vertex_map` the identity), so
+    /// [`Self::distortion`] and [`Self::correspondences`] measure nothing
+    /// meaningful: use the completed positions directly (the Python
+    /// binding's `complete`).
+    pub fn from_partial(
+        examples: &[Mesh],
+        partial: &Mesh,
+        pairs: &[(usize, usize)],
+        features: &FeatureOptions,
+        seed: u64,
+    ) -> Result<Self> {
+        let reference = examples
+            .first()
+            .ok_or_else(|| Error::invalid("a completion problem needs an example"))?;
+        if pairs.is_empty() {
+            return Err(Error::invalid(
+                "a completion problem needs at least one feature pair",
+            ));
+        }
+        for (k, &(f, g)) in pairs.iter().enumerate() {
+            if f >= reference.n_vertices() || g >= partial.n_vertices() {
+                return Err(Error::invalid(format!(
+                    "feature pair {k} ({f}, {g}) out of range: the reference has {} vertices, \
+                     the partial target {}",
+                    reference.n_vertices(),
+                    partial.n_vertices()
+                )));
+            }
+        }
+        let area: f64 = mass_matrix(reference, MassKind::Voronoi).iter().sum();
+        let (rows, y) = features.constraints(reference, partial, pairs, area)?;
+        let g: Vec<usize> = pairs.iter().map(|p| p.1).collect();
+        let shape = PartialShape {
+            mesh: partial.clone(),
+            vertex_map: (0..partial.n_vertices()).collect(),
+            features: g.clone(),
+            features_full: g,
+            area_fraction: 1.0,
+            n_components: partial.component_count(),
+            removals: 0,
+        };
+        Ok(CompletionProblem {
+            examples: examples.to_vec(),
+            rig: examples[1..].to_vec(),
+            target: partial.clone(),
+            features: pairs.iter().map(|p| p.1).collect(),
+            partial: shape,
+            rows,
+            y,
+            area,
+            seed,
+        })
+    }
+
     /// The examples (reference first).
     pub fn examples(&self) -> &[Mesh] {
         &self.examples
