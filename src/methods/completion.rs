@@ -237,6 +237,19 @@ pub struct CompletionProblem {
     seed: u64,
 }
 
+/// The reference (first example) of a completion problem and its (Voronoi)
+/// area, whose square root is the unit of every measure, as FBT's
+/// `ArapGraph::area`.
+fn reference_and_area(examples: &[Mesh]) -> Result<(&Mesh, f64)> {
+    let reference = examples
+        .first()
+        .ok_or_else(|| Error::invalid("a completion problem needs an example"))?;
+    Ok((
+        reference,
+        mass_matrix(reference, MassKind::Voronoi).iter().sum(),
+    ))
+}
+
 impl CompletionProblem {
     /// The completion of the full `target` (its vertices in correspondence
     /// with the examples': truth vertex `i` ↔ vertex `i`) from `examples`
@@ -252,12 +265,7 @@ impl CompletionProblem {
         features: &FeatureOptions,
         seed: u64,
     ) -> Result<Self> {
-        let reference = examples
-            .first()
-            .ok_or_else(|| Error::invalid("a completion problem needs an example"))?;
-        // √area unit of every measure: the reference's (Voronoi) area, as
-        // FBT's `ArapGraph::area`.
-        let area: f64 = mass_matrix(reference, MassKind::Voronoi).iter().sum();
+        let (reference, area) = reference_and_area(examples)?;
         let feats = feature_points(target, features.features, seed)?;
         let partial = make_partial(
             target,
@@ -304,9 +312,7 @@ impl CompletionProblem {
         features: &FeatureOptions,
         seed: u64,
     ) -> Result<Self> {
-        let reference = examples
-            .first()
-            .ok_or_else(|| Error::invalid("a completion problem needs an example"))?;
+        let (reference, area) = reference_and_area(examples)?;
         if pairs.is_empty() {
             return Err(Error::invalid(
                 "a completion problem needs at least one feature pair",
@@ -322,7 +328,6 @@ impl CompletionProblem {
                 )));
             }
         }
-        let area: f64 = mass_matrix(reference, MassKind::Voronoi).iter().sum();
         let (rows, y) = features.constraints(reference, partial, pairs, area)?;
         let g: Vec<usize> = pairs.iter().map(|p| p.1).collect();
         let shape = PartialShape {
