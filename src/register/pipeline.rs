@@ -118,10 +118,18 @@ impl FbtPipeline {
     /// Factorises every stage for the constraint rows `H`.
     pub fn systems(&self, rows: &ConstraintRows, params: &FbtParams) -> Result<PipelineSystems> {
         let mk = |m: &Arc<FbtModel>| FbtSystem::new(m.clone(), rows.clone(), *params);
+        // The stages that iterate get the reduced form of their iterations
+        // (FbtSystem::prepare); the initialisation stage only solves Eq. 22.
+        let prepared = |m: &Arc<FbtModel>| {
+            mk(m).map(|mut s| {
+                s.prepare();
+                s
+            })
+        };
         Ok(PipelineSystems {
             init: self.init.as_ref().map(mk).transpose()?,
-            main: mk(&self.main)?,
-            rich: self.rich.as_ref().map(mk).transpose()?,
+            main: prepared(&self.main)?,
+            rich: self.rich.as_ref().map(prepared).transpose()?,
             to_main: self.to_main.clone(),
             to_rich: self.to_rich.clone(),
         })

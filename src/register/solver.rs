@@ -48,6 +48,7 @@ use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
 use super::model::FbtModel;
 use crate::ops::polar_decomposition;
+use crate::solve::dense::tr_mul;
 use crate::solve::elastic_net::{l1_max, quadratic_l1, CoordinateDescentOptions};
 use crate::{Error, Mat3, Point, Result};
 
@@ -225,6 +226,18 @@ pub struct FbtSystem {
     init: DMatrix<f64>,
     init_chol: Cholesky<f64, Dyn>,
     ridge_eps: f64,
+    /// The reduced form of E_ℓ's iterations, once [`FbtSystem::prepare`]d
+    /// (dropped when rows change availability).
+    reduced: Option<Arc<Reduced>>,
+}
+
+/// What makes an E_ℓ iteration independent of the dictionary size b (see
+/// [`FbtSystem::prepare`]): with `Γ = L Lᵀ`, per example ℓ
+/// `Z_ℓ = L⁻¹ K̃_ℓᵀ` (b × 3r) and `G_ℓ = Z_ℓᵀ Z_ℓ = K̃_ℓ Γ⁻¹ K̃_ℓᵀ` (3r × 3r).
+#[derive(Clone, Debug)]
+struct Reduced {
+    z: Vec<DMatrix<f64>>,
+    g: Vec<DMatrix<f64>>,
 }
 
 impl FbtSystem {
@@ -298,7 +311,44 @@ impl FbtSystem {
             init,
             init_chol,
             ridge_eps,
+            reduced: None,
         })
+    }
+
+    /// Precomputes the reduced form of the E_ℓ iterations (cost
+    /// O(q r b²), about that of a few direct iterations), after which every
+    /// local / scale / global iteration of [`Self::solve_example`] and
+    /// [`Self::solve_minimal`] costs O(r²) instead of O(b²): the same
+    /// iterates, energies and result up to rounding.
+    ///
+    /// The global step's `T = Γ⁻¹(β XᵀY + α K̃ᵀR̂) = T₀ + α Γ⁻¹K̃ᵀR̂` (`R̂`
+    /// the 3r × 3 stack of the `R_kᵀ`) is never formed inside the loop: the
+    /// local step needs only `S = K̃ T = S₀ + α G R̂` (`S₀ = K̃ T₀ = Zᵀu`,
+    /// `u = L⁻¹ β XᵀY`), and the energy's quadratic part
+    /// `tr(TᵀΓT) − 2 tr(Tᵀ β XᵀY) = α² ⟨R̂, G R̂⟩ − ‖u‖²` (using `ΓT₀ = β XᵀY`
+    /// and `Γ Γ⁻¹K̃ᵀ = K̃ᵀ`). The final `T = L⁻ᵀ(u + α Z R̂)` is formed once.
+    /// The same precomputation as the BDT reduced ARAP solver's
+    /// ([`crate::arap`]), applied to FBT's Eq. 19.
+    pub fn prepare(&mut self) {
+        let q = self.model.n_examples();
+        let lfac = self.gamma_chol.l_dirty();
+        let z: Vec<DMatrix<f64>> = (0..q)
+            .map(|l| {
+                let mut z = self.model.covariance_form_t(l).clone();
+                lower_solve_in_place(lfac, &mut z);
+                z
+            })
+            .collect();
+        let g = z
+            .iter()
+            .map(|z| crate::solve::dense::tr_mul(z, z))
+            .collect();
+        self.reduced = Some(Arc::new(Reduced { z, g }));
+    }
+
+    /// Whether [`Self::prepare`] has been done (and is still valid).
+    pub fn is_prepared(&self) -> bool {
+        self.reduced.is_some()
     }
 
     /// The model.
@@ -345,6 +395,7 @@ impl FbtSystem {
                 continue;
             }
             self.available[r] = available;
+            self.reduced = None;
             let xr: DVector<f64> = self.x.row(r).transpose() * s;
             self.gamma_chol.rank_one_update(&xr, sigma);
             self.init_chol.rank_one_update(&xr, sigma);
@@ -473,44 +524,17 @@ impl FbtSystem {
     /// Local step for example ℓ: one rotation per cluster maximising
     /// `tr(R_k S_k)`, `S = K̃_ℓ T`.
     pub fn local_step(&self, l: usize, t: &DMatrix<f64>) -> Result<Vec<Mat3>> {
-        let s = self.model.covariance_form(l) * t;
-        (0..self.model.n_clusters())
-            .map(|k| {
-                let sk = Mat3::from_fn(|a, c| s[(3 * k + a, c)]);
-                if sk.iter().all(|v| *v == 0.0) {
-                    return Ok(Mat3::identity());
-                }
-                Ok(polar_decomposition(&sk.transpose())?.rotation)
-            })
-            .collect()
+        rotations_of(&(self.model.covariance_form(l) * t))
     }
 
     /// `tr(R_ℓ K̃_ℓ T)`.
     fn rotation_trace(&self, l: usize, rots: &[Mat3], t: &DMatrix<f64>) -> f64 {
-        let s = self.model.covariance_form(l) * t;
-        let mut tr = 0.0;
-        for (k, r) in rots.iter().enumerate() {
-            for a in 0..3 {
-                for c in 0..3 {
-                    tr += r[(a, c)] * s[(3 * k + c, a)];
-                }
-            }
-        }
-        tr
+        trace_of(rots, &(self.model.covariance_form(l) * t))
     }
 
     /// `K̃_ℓᵀ R_ℓᵀ` (b × 3).
     fn rotation_rhs(&self, l: usize, rots: &[Mat3]) -> DMatrix<f64> {
-        let r = self.model.n_clusters();
-        let mut rs = DMatrix::zeros(3 * r, 3);
-        for (k, rot) in rots.iter().enumerate() {
-            for a in 0..3 {
-                for c in 0..3 {
-                    rs[(3 * k + a, c)] = rot[(c, a)];
-                }
-            }
-        }
-        self.model.covariance_form_t(l) * rs
+        self.model.covariance_form_t(l) * stacked_transposes(rots)
     }
 
     /// ½[tr(TᵀΓT) − 2 tr(Tᵀ B)] + const, B = β XᵀY + rotation part.
@@ -669,7 +693,8 @@ impl FbtSystem {
         })
     }
 
-    /// Minimises E_ℓ (Eq. 13) for one example ℓ from `t0`.
+    /// Minimises E_ℓ (Eq. 13) for one example ℓ from `t0` (in O(r²) per
+    /// iteration once [`Self::prepare`]d).
     pub fn solve_example(
         &self,
         l: usize,
@@ -680,54 +705,123 @@ impl FbtSystem {
     ) -> Result<ExampleSolution> {
         self.check_y(y)?;
         self.check_t(t0)?;
+        self.check_example(l)?;
+        let terms = self.example_terms(y, t0);
+        let (mut sol, pending) = self.example_from(l, &terms, t0, alpha0, opts)?;
+        if let Some(mut v) = pending {
+            lower_transpose_solve_in_place(self.gamma_chol.l_dirty(), &mut v);
+            sol.t = v;
+        }
+        Ok(sol)
+    }
+
+    fn check_example(&self, l: usize) -> Result<()> {
         if l >= self.model.n_examples() {
             return Err(Error::invalid(format!(
                 "example {l} out of range ({} examples)",
                 self.model.n_examples()
             )));
         }
+        Ok(())
+    }
+
+    /// The quantities of `Y` and of the start `t0` shared by every
+    /// example's solve.
+    fn example_terms(&self, y: &DMatrix<f64>, t0: &DMatrix<f64>) -> ExampleTerms {
         let (xty, yy) = self.constraint_terms(y);
+        let u = self.reduced.as_ref().map(|_| {
+            let mut u = xty.clone();
+            lower_solve_in_place(self.gamma_chol.l_dirty(), &mut u);
+            u
+        });
+        let quad0 = t0.dot(&(&self.gamma * t0)) - 2.0 * t0.dot(&xty);
+        ExampleTerms { xty, yy, u, quad0 }
+    }
+
+    /// E_ℓ's iterations from `t0`. On the reduced path the returned
+    /// solution's `t` is empty and the second value holds `Lᵀ T` (the caller
+    /// solves with `Lᵀ`, for several examples at once).
+    fn example_from(
+        &self,
+        l: usize,
+        terms: &ExampleTerms,
+        t0: &DMatrix<f64>,
+        alpha0: Option<f64>,
+        opts: &IterOptions,
+    ) -> Result<(ExampleSolution, Option<DMatrix<f64>>)> {
+        let (xty, yy) = (&terms.xty, terms.yy);
         let c = self.model.graph().rest_terms()[l];
-        let mut t = t0.clone();
+        let kt = self.model.covariance_form(l);
         let mut alpha = match self.params.scale {
             ScaleMode::Estimate => alpha0.unwrap_or(1.0),
             ScaleMode::Fixed(a) => a,
         };
+        let reduced = self.reduced.as_deref().zip(terms.u.as_ref());
+        // The state: S = K̃_ℓ T and the quadratic part of the energy at T,
+        // quad = tr(TᵀΓT) − 2 tr(Tᵀ β XᵀY); T itself only on the direct path.
+        let mut t = if reduced.is_some() {
+            DMatrix::zeros(0, 3)
+        } else {
+            t0.clone()
+        };
+        let mut s = kt * t0;
+        let mut quad = terms.quad0;
+        let (s0, e0) = match reduced {
+            Some((red, u)) => (Some(tr_mul(&red.z[l], u)), u.norm_squared()),
+            None => (None, 0.0),
+        };
+        let energy = |quad: f64, rt: f64, alpha: f64| {
+            0.5 * (quad - 2.0 * alpha * rt + yy + alpha * alpha * c)
+        };
         let mut rots = Vec::new();
+        let mut rhat = DMatrix::zeros(0, 3);
         let mut trace = Trace::default();
         let mut prev = f64::INFINITY;
         let mut iterations = 0;
-        let energy = |t: &DMatrix<f64>, rt: f64, alpha: f64| {
-            self.quadratic(t, &xty, yy - 2.0 * alpha * rt + alpha * alpha * c)
-        };
         for it in 0..opts.max_iter.max(1) {
             iterations = it + 1;
-            rots = self.local_step(l, &t)?;
-            let rt = self.rotation_trace(l, &rots, &t);
-            trace.steps.push((it, Step::Local, energy(&t, rt, alpha)));
+            rots = rotations_of(&s)?;
+            rhat = stacked_transposes(&rots);
+            let rt = rhat.dot(&s);
+            trace.steps.push((it, Step::Local, energy(quad, rt, alpha)));
             if self.params.scale == ScaleMode::Estimate && c > 0.0 {
                 alpha = (rt / c).max(0.0);
-                trace.steps.push((it, Step::Scale, energy(&t, rt, alpha)));
+                trace.steps.push((it, Step::Scale, energy(quad, rt, alpha)));
             }
-            let b = &xty + self.rotation_rhs(l, &rots) * alpha;
-            t = self.gamma_chol.solve(&b);
-            let rt = self.rotation_trace(l, &rots, &t);
-            let e = energy(&t, rt, alpha);
+            match (reduced, &s0) {
+                (Some((red, _)), Some(s0)) => {
+                    let gr = &red.g[l] * &rhat;
+                    s = s0 + &gr * alpha;
+                    quad = alpha * alpha * rhat.dot(&gr) - e0;
+                }
+                _ => {
+                    let b = xty + self.model.covariance_form_t(l) * &rhat * alpha;
+                    t = self.gamma_chol.solve(&b);
+                    s = kt * &t;
+                    quad = t.dot(&(&self.gamma * &t)) - 2.0 * t.dot(xty);
+                }
+            }
+            let e = energy(quad, rhat.dot(&s), alpha);
             trace.steps.push((it, Step::Global, e));
             if prev - e <= opts.rel_tol * e.abs() {
                 break;
             }
             prev = e;
         }
+        // The last global step's T = L⁻ᵀ(u + α Z R̂), still to be solved.
+        let pending = reduced.map(|(red, u)| u + &red.z[l] * &rhat * alpha);
         let energy = trace.steps.last().map_or(f64::NAN, |s| s.2);
-        Ok(ExampleSolution {
-            t,
-            rotations: rots,
-            alpha,
-            energy,
-            trace,
-            iterations,
-        })
+        Ok((
+            ExampleSolution {
+                t,
+                rotations: rots,
+                alpha,
+                energy,
+                trace,
+                iterations,
+            },
+            pending,
+        ))
     }
 
     /// Minimises E_mn (Eq. 12): every E_ℓ from `t0` (or from `starts[ℓ]`),
@@ -739,9 +833,28 @@ impl FbtSystem {
         alpha0: Option<f64>,
         opts: &IterOptions,
     ) -> Result<MinimalSolution> {
-        let per_example: Vec<ExampleSolution> = (0..self.model.n_examples())
-            .map(|l| self.solve_example(l, y, t0, alpha0, opts))
+        self.check_y(y)?;
+        self.check_t(t0)?;
+        let terms = self.example_terms(y, t0);
+        let solved: Vec<(ExampleSolution, Option<DMatrix<f64>>)> = (0..self.model.n_examples())
+            .map(|l| self.example_from(l, &terms, t0, alpha0, opts))
             .collect::<Result<_>>()?;
+        // The reduced path's T of every example by one triangular solve.
+        let b = self.model.size();
+        let pending: Vec<usize> = (0..solved.len())
+            .filter(|&l| solved[l].1.is_some())
+            .collect();
+        let mut all = DMatrix::zeros(b, 3 * pending.len());
+        for (j, &l) in pending.iter().enumerate() {
+            if let Some(v) = &solved[l].1 {
+                all.columns_mut(3 * j, 3).copy_from(v);
+            }
+        }
+        lower_transpose_solve_in_place(self.gamma_chol.l_dirty(), &mut all);
+        let mut per_example: Vec<ExampleSolution> = solved.into_iter().map(|(s, _)| s).collect();
+        for (j, &l) in pending.iter().enumerate() {
+            per_example[l].t = all.columns(3 * j, 3).into_owned();
+        }
         let best = argmin(per_example.iter().map(|s| s.energy));
         Ok(MinimalSolution { per_example, best })
     }
@@ -784,6 +897,87 @@ impl FbtSystem {
             .gamma_chol
             .solve(&(b + self.rotation_rhs(l, rots) * alpha)))
     }
+}
+
+/// What [`FbtSystem::example_from`] needs of the targets `Y`: `β XᵀY`,
+/// `β‖Y‖²` and, on the reduced path, `u = L⁻¹ β XᵀY`.
+struct ExampleTerms {
+    xty: DMatrix<f64>,
+    yy: f64,
+    u: Option<DMatrix<f64>>,
+    /// `tr(t0ᵀΓt0) − 2 tr(t0ᵀ β XᵀY)`.
+    quad0: f64,
+}
+
+/// One rotation per cluster block `S_k` (rows `3k..3k+3`) of `s` (3r × 3),
+/// maximising `tr(R_k S_k)`: the rotation of the polar decomposition of
+/// `S_kᵀ` (the identity for an all-zero block).
+fn rotations_of(s: &DMatrix<f64>) -> Result<Vec<Mat3>> {
+    (0..s.nrows() / 3)
+        .map(|k| {
+            let sk = Mat3::from_fn(|a, c| s[(3 * k + a, c)]);
+            if sk.iter().all(|v| *v == 0.0) {
+                return Ok(Mat3::identity());
+            }
+            Ok(polar_decomposition(&sk.transpose())?.rotation)
+        })
+        .collect()
+}
+
+/// `Σ_k tr(R_k S_k)` for the cluster blocks of `s` (3r × 3).
+fn trace_of(rots: &[Mat3], s: &DMatrix<f64>) -> f64 {
+    let mut tr = 0.0;
+    for (k, r) in rots.iter().enumerate() {
+        for a in 0..3 {
+            for c in 0..3 {
+                tr += r[(a, c)] * s[(3 * k + c, a)];
+            }
+        }
+    }
+    tr
+}
+
+/// `R̂`: the 3r × 3 stack of the `R_kᵀ` (so that `tr(R̂ᵀ S) = Σ_k tr(R_k S_k)`).
+fn stacked_transposes(rots: &[Mat3]) -> DMatrix<f64> {
+    let mut rs = DMatrix::zeros(3 * rots.len(), 3);
+    for (k, rot) in rots.iter().enumerate() {
+        for a in 0..3 {
+            for c in 0..3 {
+                rs[(3 * k + a, c)] = rot[(c, a)];
+            }
+        }
+    }
+    rs
+}
+
+/// Solves `L X = B` in place for lower-triangular `L` (only its lower
+/// triangle is read) and column-major `B` (faer's blocked kernel,
+/// sequential).
+fn lower_solve_in_place(l: &DMatrix<f64>, b: &mut DMatrix<f64>) {
+    let n = l.nrows();
+    let k = b.ncols();
+    if n == 0 || k == 0 {
+        return;
+    }
+    let lv = faer::MatRef::from_column_major_slice(l.as_slice(), n, n);
+    let bv = faer::MatMut::from_column_major_slice_mut(b.as_mut_slice(), n, k);
+    faer::linalg::triangular_solve::solve_lower_triangular_in_place(lv, bv, faer::Par::Seq);
+}
+
+/// Solves `Lᵀ X = B` in place (the transpose of [`lower_solve_in_place`]).
+fn lower_transpose_solve_in_place(l: &DMatrix<f64>, b: &mut DMatrix<f64>) {
+    let n = l.nrows();
+    let k = b.ncols();
+    if n == 0 || k == 0 {
+        return;
+    }
+    let lv = faer::MatRef::from_column_major_slice(l.as_slice(), n, n);
+    let bv = faer::MatMut::from_column_major_slice_mut(b.as_mut_slice(), n, k);
+    faer::linalg::triangular_solve::solve_upper_triangular_in_place(
+        lv.transpose(),
+        bv,
+        faer::Par::Seq,
+    );
 }
 
 fn add_ridge(a: &mut DMatrix<f64>, eps: f64) {
