@@ -121,6 +121,18 @@ fn tiny_fbt_config_runs_through_the_harness() {
     let alpha = get("scale", "alpha");
     assert!((alpha - 0.7).abs() / 0.7 < 0.03, "alpha {alpha}");
     assert!(get("scale", "alpha_ratio_error") < 1e-3);
+    // The energy's α of the true target can only grow as the clusters get
+    // finer (Σ‖S_i‖_* ≥ ‖Σ S_i‖_*): one rotation per vertex bounds every
+    // clustering's α from above, and both stay near the applied scale.
+    let (oracle, vertex) = (
+        get("scale", "alpha_oracle"),
+        get("scale", "alpha_vertex_oracle"),
+    );
+    assert!(
+        vertex >= oracle - 1e-12,
+        "per-vertex {vertex} < clustered {oracle}"
+    );
+    assert!((vertex - 0.7).abs() / 0.7 < 0.05, "per-vertex α {vertex}");
     // Completion: NICP moves the template closer to the target.
     let (before, after) = (
         get("completion", "rel_distortion_mean_init"),

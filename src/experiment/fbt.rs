@@ -493,6 +493,15 @@ fn scale(
         .graph
         .best_scale(reg.example, target.vertices(), clusters)?;
     out.set("alpha_oracle", num(oracle));
+    // The same with one rotation per vertex (its 1-ring: the finest
+    // clusters, classic ARAP): how far the true target is from a scaled
+    // isometry of example ℓ*, which no clustering can remove; the cluster
+    // oracle falls below it by the within-cluster bending.
+    let per_vertex: Vec<usize> = (0..target.n_vertices()).collect();
+    let (vertex_oracle, _) = setup
+        .graph
+        .best_scale(reg.example, target.vertices(), &per_vertex)?;
+    out.set("alpha_vertex_oracle", num(vertex_oracle));
     out.set(
         "alpha_oracle_error",
         num((reg.alpha - oracle).abs() / oracle),

@@ -140,6 +140,7 @@ pub fn column_label(c: &str) -> String {
         "alpha_error" => "|α − scale| / scale".into(),
         "alpha_unscaled" => "α of the unscaled target".into(),
         "alpha_oracle" => "α of the true target (energy's own)".into(),
+        "alpha_vertex_oracle" => "α of the true target, one rotation per vertex".into(),
         "alpha_oracle_error" => "|α − α of the true target| / α of the true target".into(),
         "alpha_ratio_error" => "|α / α(unscaled) − scale| / scale".into(),
         "perm_correct" => "share of trials with the true assignment".into(),

@@ -110,6 +110,7 @@ pub const CASE_COLUMNS: &[&str] = &[
     "alpha_unscaled",
     "alpha_oracle",
     "alpha_oracle_error",
+    "alpha_vertex_oracle",
     "alpha_ratio_error",
     "rel_distortion_mean",
     "rel_distortion_median",
