@@ -193,9 +193,14 @@ fn sigkill_at_20_random_moments_loses_nothing() {
     let mut progress = Vec::new();
     let mut in_round = 0;
     let total = (EXPERIMENTS.len() * N_RESULTS) as f64;
+    // The run's duration as the kills see it: the reference run's, lowered
+    // whenever a killed run had already finished (the reference may have
+    // been slowed by other load on the machine; then most kills would land
+    // after a finished run).
+    let mut t_run = t_ref.as_secs_f64();
     for kill in 0..KILLS {
         let missing = 1.0 - in_round as f64 / total;
-        let window = t_noop + t_ref.as_secs_f64() * (0.25 + 0.6 * missing);
+        let window = t_noop + t_run * (0.25 + 0.6 * missing);
         let delay = Duration::from_secs_f64(rng.random::<f64>() * window);
         let mut child = deformlab()
             .args(&args)
@@ -206,6 +211,11 @@ fn sigkill_at_20_random_moments_loses_nothing() {
         std::thread::sleep(delay);
         if child.try_wait().unwrap().is_none() {
             interrupted += 1;
+        } else {
+            // This kill's window would have ended at `delay` with this
+            // t_run; never below a tenth of the reference.
+            let fit = (delay.as_secs_f64() - t_noop).max(0.0) / (0.25 + 0.6 * missing);
+            t_run = t_run.min(fit).max(0.1 * t_ref.as_secs_f64());
         }
         child.kill().unwrap(); // SIGKILL on Unix; Ok if it already exited
         let status = child.wait().unwrap();

@@ -335,7 +335,7 @@ impl FbtSystem {
         let z: Vec<DMatrix<f64>> = (0..q)
             .map(|l| {
                 let mut z = self.model.covariance_form_t(l).clone();
-                lower_solve_in_place(lfac, &mut z);
+                triangular_solve_in_place(lfac, &mut z, false);
                 z
             })
             .collect();
@@ -709,7 +709,7 @@ impl FbtSystem {
         let terms = self.example_terms(y, t0);
         let (mut sol, pending) = self.example_from(l, &terms, t0, alpha0, opts)?;
         if let Some(mut v) = pending {
-            lower_transpose_solve_in_place(self.gamma_chol.l_dirty(), &mut v);
+            triangular_solve_in_place(self.gamma_chol.l_dirty(), &mut v, true);
             sol.t = v;
         }
         Ok(sol)
@@ -731,7 +731,7 @@ impl FbtSystem {
         let (xty, yy) = self.constraint_terms(y);
         let u = self.reduced.as_ref().map(|_| {
             let mut u = xty.clone();
-            lower_solve_in_place(self.gamma_chol.l_dirty(), &mut u);
+            triangular_solve_in_place(self.gamma_chol.l_dirty(), &mut u, false);
             u
         });
         let quad0 = t0.dot(&(&self.gamma * t0)) - 2.0 * t0.dot(&xty);
@@ -850,7 +850,7 @@ impl FbtSystem {
                 all.columns_mut(3 * j, 3).copy_from(v);
             }
         }
-        lower_transpose_solve_in_place(self.gamma_chol.l_dirty(), &mut all);
+        triangular_solve_in_place(self.gamma_chol.l_dirty(), &mut all, true);
         let mut per_example: Vec<ExampleSolution> = solved.into_iter().map(|(s, _)| s).collect();
         for (j, &l) in pending.iter().enumerate() {
             per_example[l].t = all.columns(3 * j, 3).into_owned();
@@ -950,10 +950,11 @@ fn stacked_transposes(rots: &[Mat3]) -> DMatrix<f64> {
     rs
 }
 
-/// Solves `L X = B` in place for lower-triangular `L` (only its lower
-/// triangle is read) and column-major `B` (faer's blocked kernel,
-/// sequential).
-fn lower_solve_in_place(l: &DMatrix<f64>, b: &mut DMatrix<f64>) {
+/// Solves `L X = B` (or `Lᵀ X = B` when `transpose`) in place for
+/// lower-triangular `L` (only its lower triangle is read) and column-major
+/// `B` (faer's blocked kernel, sequential).
+fn triangular_solve_in_place(l: &DMatrix<f64>, b: &mut DMatrix<f64>, transpose: bool) {
+    use faer::linalg::triangular_solve as ts;
     let n = l.nrows();
     let k = b.ncols();
     if n == 0 || k == 0 {
@@ -961,23 +962,11 @@ fn lower_solve_in_place(l: &DMatrix<f64>, b: &mut DMatrix<f64>) {
     }
     let lv = faer::MatRef::from_column_major_slice(l.as_slice(), n, n);
     let bv = faer::MatMut::from_column_major_slice_mut(b.as_mut_slice(), n, k);
-    faer::linalg::triangular_solve::solve_lower_triangular_in_place(lv, bv, faer::Par::Seq);
-}
-
-/// Solves `Lᵀ X = B` in place (the transpose of [`lower_solve_in_place`]).
-fn lower_transpose_solve_in_place(l: &DMatrix<f64>, b: &mut DMatrix<f64>) {
-    let n = l.nrows();
-    let k = b.ncols();
-    if n == 0 || k == 0 {
-        return;
+    if transpose {
+        ts::solve_upper_triangular_in_place(lv.transpose(), bv, faer::Par::Seq);
+    } else {
+        ts::solve_lower_triangular_in_place(lv, bv, faer::Par::Seq);
     }
-    let lv = faer::MatRef::from_column_major_slice(l.as_slice(), n, n);
-    let bv = faer::MatMut::from_column_major_slice_mut(b.as_mut_slice(), n, k);
-    faer::linalg::triangular_solve::solve_upper_triangular_in_place(
-        lv.transpose(),
-        bv,
-        faer::Par::Seq,
-    );
 }
 
 fn add_ridge(a: &mut DMatrix<f64>, eps: f64) {
