@@ -462,7 +462,8 @@ class Bench:
     # -- report
     def table(self):
         head = "| row | size | ours | anchor / target | ratio | goal | met |\n|---|---|---|---|---|---|---|\n"
-        return head + "".join("| " + " | ".join(str(c) for c in r) + " |\n" for r in self.rows)
+        cell = lambda c: str(c).replace("|", "\\|")  # noqa: E731  (a "|" in a cell would split it)
+        return head + "".join("| " + " | ".join(cell(c) for c in r) + " |\n" for r in self.rows)
 
 
 QUICK_SUITE = ["experiments/fig14.toml", "experiments/fig4.toml", "experiments/fbt-fig3.toml"]
