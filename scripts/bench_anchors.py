@@ -290,7 +290,7 @@ class Bench:
                               "(README, 'deformlab weights --max-iter 1000'), more than the default 200 the Python "
                               "bbw uses (it has no max-iter option), and coupled took 2229 s CPU there; igl.bbw "
                               "was not tried at this size (its default max_iter is 100). The exponent is fitted on "
-                              "the sizes below")
+                              "the smaller sizes")
                     continue
                 h = self.measure({"task": "fps", "mesh": str(mesh), "k": HANDLES})["handles"]
                 sides = ["coupled", "per-handle"] + (["igl"] if have_igl else [])
@@ -386,7 +386,8 @@ class Bench:
                      f"{it / PAPER_ITER[cls]:.2f}", f"≤ {GOAL_RATIO}", it / PAPER_ITER[cls] <= GOAL_RATIO)
         for cls in PAPER_FULL:
             if cls not in seen:
-                self.skip(f"fbt {cls}", "class not in the data folder" + (" (--quick runs wolf and cat only)" if self.a.quick else ""))
+                self.skip(f"fbt {cls}", "not run with --quick (wolf and cat only)" if self.a.quick
+                          else "class not in the data folder")
 
     def keypoints(self):
         self.say("\n## keypoints: `deformlab keypoints` (n_c = 100, m = 1), 2 threads, wall time vs target")
