@@ -359,10 +359,6 @@ impl RowSparse {
         if n == 0 || b == 0 || b > u32::MAX as usize {
             return None;
         }
-        let nnz = d.iter().filter(|v| **v != 0.0).count();
-        if nnz as f64 > ROW_SPARSE_MAX_DENSITY * (n * b) as f64 {
-            return None;
-        }
         let mut counts = vec![0usize; n + 1];
         for c in 0..b {
             for (i, v) in d.column(c).iter().enumerate() {
@@ -373,6 +369,10 @@ impl RowSparse {
         }
         for i in 0..n {
             counts[i + 1] += counts[i];
+        }
+        let nnz = counts[n];
+        if nnz as f64 > ROW_SPARSE_MAX_DENSITY * (n * b) as f64 {
+            return None;
         }
         let ptr = counts.clone();
         let mut next = counts;

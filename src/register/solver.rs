@@ -339,10 +339,7 @@ impl FbtSystem {
                 z
             })
             .collect();
-        let g = z
-            .iter()
-            .map(|z| crate::solve::dense::tr_mul(z, z))
-            .collect();
+        let g = z.iter().map(|z| tr_mul(z, z)).collect();
         self.reduced = Some(Arc::new(Reduced { z, g }));
     }
 
@@ -527,9 +524,9 @@ impl FbtSystem {
         rotations_of(&(self.model.covariance_form(l) * t))
     }
 
-    /// `tr(R_ℓ K̃_ℓ T)`.
+    /// `tr(R_ℓ K̃_ℓ T)` = ⟨R̂, K̃_ℓ T⟩.
     fn rotation_trace(&self, l: usize, rots: &[Mat3], t: &DMatrix<f64>) -> f64 {
-        trace_of(rots, &(self.model.covariance_form(l) * t))
+        stacked_transposes(rots).dot(&(self.model.covariance_form(l) * t))
     }
 
     /// `K̃_ℓᵀ R_ℓᵀ` (b × 3).
@@ -756,7 +753,13 @@ impl FbtSystem {
             ScaleMode::Estimate => alpha0.unwrap_or(1.0),
             ScaleMode::Fixed(a) => a,
         };
-        let reduced = self.reduced.as_deref().zip(terms.u.as_ref());
+        // On the reduced path: the precomputation, u = L⁻¹ β XᵀY, S₀ = Zᵀu
+        // and ‖u‖².
+        let reduced = self
+            .reduced
+            .as_deref()
+            .zip(terms.u.as_ref())
+            .map(|(red, u)| (red, u, tr_mul(&red.z[l], u), u.norm_squared()));
         // The state: S = K̃_ℓ T and the quadratic part of the energy at T,
         // quad = tr(TᵀΓT) − 2 tr(Tᵀ β XᵀY); T itself only on the direct path.
         let mut t = if reduced.is_some() {
@@ -766,10 +769,6 @@ impl FbtSystem {
         };
         let mut s = kt * t0;
         let mut quad = terms.quad0;
-        let (s0, e0) = match reduced {
-            Some((red, u)) => (Some(tr_mul(&red.z[l], u)), u.norm_squared()),
-            None => (None, 0.0),
-        };
         let energy = |quad: f64, rt: f64, alpha: f64| {
             0.5 * (quad - 2.0 * alpha * rt + yy + alpha * alpha * c)
         };
@@ -788,13 +787,13 @@ impl FbtSystem {
                 alpha = (rt / c).max(0.0);
                 trace.steps.push((it, Step::Scale, energy(quad, rt, alpha)));
             }
-            match (reduced, &s0) {
-                (Some((red, _)), Some(s0)) => {
+            match &reduced {
+                Some((red, _, s0, e0)) => {
                     let gr = &red.g[l] * &rhat;
                     s = s0 + &gr * alpha;
                     quad = alpha * alpha * rhat.dot(&gr) - e0;
                 }
-                _ => {
+                None => {
                     let b = xty + self.model.covariance_form_t(l) * &rhat * alpha;
                     t = self.gamma_chol.solve(&b);
                     s = kt * &t;
@@ -809,7 +808,7 @@ impl FbtSystem {
             prev = e;
         }
         // The last global step's T = L⁻ᵀ(u + α Z R̂), still to be solved.
-        let pending = reduced.map(|(red, u)| u + &red.z[l] * &rhat * alpha);
+        let pending = reduced.map(|(red, u, _, _)| u + &red.z[l] * &rhat * alpha);
         let energy = trace.steps.last().map_or(f64::NAN, |s| s.2);
         Ok((
             ExampleSolution {
@@ -839,21 +838,20 @@ impl FbtSystem {
         let solved: Vec<(ExampleSolution, Option<DMatrix<f64>>)> = (0..self.model.n_examples())
             .map(|l| self.example_from(l, &terms, t0, alpha0, opts))
             .collect::<Result<_>>()?;
-        // The reduced path's T of every example by one triangular solve.
-        let b = self.model.size();
-        let pending: Vec<usize> = (0..solved.len())
-            .filter(|&l| solved[l].1.is_some())
-            .collect();
-        let mut all = DMatrix::zeros(b, 3 * pending.len());
-        for (j, &l) in pending.iter().enumerate() {
-            if let Some(v) = &solved[l].1 {
-                all.columns_mut(3 * j, 3).copy_from(v);
+        let (mut per_example, pending): (Vec<ExampleSolution>, Vec<Option<DMatrix<f64>>>) =
+            solved.into_iter().unzip();
+        // The reduced path (every example or none): the T of every example
+        // by one triangular solve.
+        let pending: Vec<DMatrix<f64>> = pending.into_iter().flatten().collect();
+        if !pending.is_empty() {
+            let mut all = DMatrix::zeros(self.model.size(), 3 * pending.len());
+            for (l, v) in pending.iter().enumerate() {
+                all.columns_mut(3 * l, 3).copy_from(v);
             }
-        }
-        triangular_solve_in_place(self.gamma_chol.l_dirty(), &mut all, true);
-        let mut per_example: Vec<ExampleSolution> = solved.into_iter().map(|(s, _)| s).collect();
-        for (j, &l) in pending.iter().enumerate() {
-            per_example[l].t = all.columns(3 * j, 3).into_owned();
+            triangular_solve_in_place(self.gamma_chol.l_dirty(), &mut all, true);
+            for (l, sol) in per_example.iter_mut().enumerate() {
+                sol.t = all.columns(3 * l, 3).into_owned();
+            }
         }
         let best = argmin(per_example.iter().map(|s| s.energy));
         Ok(MinimalSolution { per_example, best })
@@ -922,19 +920,6 @@ fn rotations_of(s: &DMatrix<f64>) -> Result<Vec<Mat3>> {
             Ok(polar_decomposition(&sk.transpose())?.rotation)
         })
         .collect()
-}
-
-/// `Σ_k tr(R_k S_k)` for the cluster blocks of `s` (3r × 3).
-fn trace_of(rots: &[Mat3], s: &DMatrix<f64>) -> f64 {
-    let mut tr = 0.0;
-    for (k, r) in rots.iter().enumerate() {
-        for a in 0..3 {
-            for c in 0..3 {
-                tr += r[(a, c)] * s[(3 * k + c, a)];
-            }
-        }
-    }
-    tr
 }
 
 /// `R̂`: the 3r × 3 stack of the `R_kᵀ` (so that `tr(R̂ᵀ S) = Σ_k tr(R_k S_k)`).
