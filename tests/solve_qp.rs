@@ -342,3 +342,16 @@ fn active_set_agrees_with_admm() {
         }
     }
 }
+
+/// The allocator settings of `solve::keep_freed_memory` (called by the CLI
+/// and the binding) are accepted by glibc: a rejected value (e.g. a
+/// threshold above what `mallopt` allows) returns false.
+#[test]
+fn allocator_settings_apply_on_glibc() {
+    let applied = deformlab::solve::keep_freed_memory();
+    assert_eq!(
+        applied,
+        cfg!(all(target_os = "linux", target_env = "gnu")),
+        "keep_freed_memory applied: {applied}"
+    );
+}

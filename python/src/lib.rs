@@ -1213,6 +1213,11 @@ fn run<'py>(
 /// The native module: `__version__` is the library crate's version.
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    // The solvers' large per-iteration buffers are reused instead of being
+    // unmapped and faulted in again (glibc only; see
+    // deformlab::solve::keep_freed_memory). Process-wide: the Python
+    // process keeps freed memory for reuse. Whether it applied:
+    m.add("KEEPS_FREED_MEMORY", deformlab::solve::keep_freed_memory())?;
     m.add("__version__", deformlab::VERSION)?;
     m.add("BINDING_VERSION", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(read_mesh, m)?)?;
