@@ -39,6 +39,12 @@
 //!
 //! Small problems (`n ≤ DENSE_MAX`, or a subspace as large as `n`) are solved
 //! densely with nalgebra's symmetric eigensolver and verified the same way.
+//!
+//! **Signs.** Every returned eigenvector has a canonical sign that depends
+//! only on the vector (and the masses), not on the random start, the block
+//! size, the path (dense or Krylov) or rounding: see
+//! [`canonicalize_signs`]. Within the eigenspace of a repeated eigenvalue the
+//! returned basis is still arbitrary.
 
 use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
@@ -371,7 +377,7 @@ impl Context<'_> {
         }
         pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
         let values: Vec<f64> = pairs.iter().map(|p| p.0).collect();
-        let vectors = DMatrix::from_fn(vectors.nrows(), k, |i, j| vectors[(i, pairs[j].1)]);
+        let mut vectors = DMatrix::from_fn(vectors.nrows(), k, |i, j| vectors[(i, pairs[j].1)]);
         let lphi = DMatrix::from_fn(vectors.nrows(), k, |i, j| lphi[(i, pairs[j].1)]);
 
         // Residuals in the M⁻¹ norm, relative to max(λ, λ_scale).
@@ -426,6 +432,7 @@ impl Context<'_> {
                 ));
             }
         }
+        canonicalize_signs(&mut vectors, m);
         Ok(Eigenpairs {
             values,
             vectors,
@@ -635,5 +642,92 @@ impl ShiftInvert<'_> {
             }
         }
         Ok(buf)
+    }
+}
+
+/// Relative size below which `⟨φ, w⟩_M` is not trusted to fix the sign of
+/// `φ` (see [`canonicalize_signs`]).
+const SIGN_TAU: f64 = 1e-6;
+
+/// Number of weight vectors tried by [`canonicalize_signs`] before the
+/// largest-entry fallback.
+const SIGN_WEIGHTS: u64 = 3;
+
+/// Entry `i` of the `r`-th fixed sign weight vector: `1 + u − ½` with `u` in
+/// `[0, 1)` from a SplitMix64 hash of `(r, i)`. Depends only on the index.
+fn sign_weight(r: u64, i: usize) -> f64 {
+    let mut z = (i as u64)
+        .wrapping_add(r.wrapping_mul(0xD1B5_4A32_D192_ED03))
+        .wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    0.5 + (z >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
+/// Gives every column `φ` of `vectors` its canonical sign (the rule that
+/// [`generalized_eigen`] applies to its results), in place; `m` is the
+/// diagonal mass.
+///
+/// **Rule.** `φ` is made to satisfy `⟨φ, w_r⟩_M = Σ m_i w_{r,i} φ_i > 0` for
+/// the first of a few fixed weight vectors `w_0, w_1, w_2` whose product is
+/// not negligible, `|⟨φ, w_r⟩_M| > τ ‖φ‖_M ‖w_r‖_M` with `τ = 1e-6`; if all
+/// three are negligible (or for a vector that is zero there), its entry of
+/// largest magnitude (lowest index on ties) is made positive. The weights
+/// `w_{r,i} = 1 + (u_{r,i} − ½)`, `u` a fixed hash of `(r, i)` in `[0, 1)`,
+/// depend only on the vertex index, so the sign depends only on the vector
+/// (and the masses), not on the solver's random start, block size or
+/// rounding.
+///
+/// **Why this rule.** Any sign rule is discontinuous somewhere; the question
+/// is how likely a computed eigenvector lands there. "Largest entry
+/// positive" fails on every symmetric mesh, where an odd eigenfunction has
+/// two extreme entries of equal magnitude and opposite sign, so rounding
+/// decides. Against a generic weight vector, the product of a unit vector is
+/// of relative size `~ 1/√n` (`w` is not aligned with the mesh's
+/// symmetries: the hash of the index knows nothing of the geometry), far
+/// above the relative accuracy of the vectors (`≲ 1e-7`); the chance that
+/// it falls below `τ` is about `τ √n`, and then a second, independent
+/// weight decides. The constant part of `w` makes the constant eigenvector
+/// of a closed (or Neumann) mesh positive; the other eigenvectors are
+/// M-orthogonal to constants, so for them only the hashed part matters.
+///
+/// **Repeated eigenvalues.** For an eigenvalue of multiplicity `> 1` the
+/// vectors inside its eigenspace are arbitrary (any M-orthonormal basis is
+/// valid and the solver returns one that depends on its start); only the
+/// sign of each returned vector is canonicalised, not the rotation.
+///
+/// Idempotent, and `φ` and `−φ` give bit-identical results (`⟨−φ, w⟩_M` is
+/// computed as exactly `−⟨φ, w⟩_M`).
+pub fn canonicalize_signs(vectors: &mut DMatrix<f64>, m: &[f64]) {
+    let n = vectors.nrows();
+    assert_eq!(m.len(), n, "one mass per row");
+    for mut col in vectors.column_iter_mut() {
+        let norm2: f64 = col.iter().zip(m).map(|(x, w)| w * x * x).sum();
+        let mut sign = 0.0;
+        for r in 0..SIGN_WEIGHTS {
+            let (mut p, mut w2) = (0.0, 0.0);
+            for (i, (&x, &mi)) in col.iter().zip(m).enumerate() {
+                let w = sign_weight(r, i);
+                p += mi * w * x;
+                w2 += mi * w * w;
+            }
+            if p.abs() > SIGN_TAU * (norm2 * w2).sqrt() {
+                sign = p.signum();
+                break;
+            }
+        }
+        if sign == 0.0 {
+            let mut best = (0.0f64, 0usize);
+            for (i, x) in col.iter().enumerate() {
+                if x.abs() > best.0 {
+                    best = (x.abs(), i);
+                }
+            }
+            sign = if col[best.1] < 0.0 { -1.0 } else { 1.0 };
+        }
+        if sign < 0.0 {
+            col.neg_mut();
+        }
     }
 }
