@@ -230,7 +230,7 @@ pub fn generalized_eigen(
         )
     };
     let k_mat = pencil(-shift);
-    let symbolic = SymbolicCholesky::new(&k_mat)?;
+    let symbolic = SymbolicCholesky::new_supernodal(&k_mat)?;
     let chol = symbolic.factorize(&k_mat)?;
     let op = ShiftInvert {
         chol: &chol,
