@@ -596,7 +596,9 @@ fn block_krylov(
                 if nb == 0 {
                     break;
                 }
-                orthonormalise_into(&mut v, &mut x, &mut x2, n, d, x_cols, nb, &mut coef, None);
+                orthonormalise_into(
+                    &mut v, &mut x, &mut x2, n, d, x_cols, nb, &mut coef, false, None,
+                );
                 nb
             }
         };
@@ -604,16 +606,21 @@ fn block_krylov(
         w[d * n..(d + nb) * n].copy_from_slice(&v[d * n..(d + nb) * n]);
         op.apply_in_place(&mut w[d * n..(d + nb) * n], nb)?;
         solves += nb;
-        // H[:d+nb, d..d+nb] = V[:, :d+nb]ᵀ A q; mirrored, the new diagonal
-        // block symmetrised.
+        // C = V[:, :d+nb]ᵀ A q: the new columns of H (mirrored, the new
+        // diagonal block symmetrised) and the first Gram–Schmidt pass of
+        // the next block A q against V.
         let dn = d + nb;
+        coef.resize_with(dn, nb, |_, _| 0.0);
         gemm(
-            h.as_mut().submatrix_mut(0, d, dn, nb),
+            coef.as_mut(),
             Accum::Replace,
             fcols(&v, n, 0, dn).transpose(),
             fcols(&w, n, d, nb),
             1.0,
         );
+        h.as_mut()
+            .submatrix_mut(0, d, dn, nb)
+            .copy_from(coef.as_ref());
         for j in d..dn {
             for i in 0..d {
                 h[(j, i)] = h[(i, j)];
@@ -625,14 +632,9 @@ fn block_krylov(
             }
         }
         d = dn;
-        if d < k {
-            x[..n * nb].copy_from_slice(&w[(d - nb) * n..d * n]);
-            x_cols = nb;
-            continue;
-        }
         let restart = d + b > max_dim;
-        // The next block, orthonormalised now for the residual estimate
-        // (not at a restart, which replaces it).
+        // The next block, orthonormalised now (for the residual estimate),
+        // except at a restart, which replaces it.
         let mut r_next = None;
         if !restart {
             x[..n * nb].copy_from_slice(&w[(d - nb) * n..d * n]);
@@ -647,10 +649,14 @@ fn block_krylov(
                 nb,
                 nn,
                 &mut coef,
+                true,
                 Some(&mut r),
             );
             prepared = Some(nn);
             r_next = Some(r);
+        }
+        if d < k {
+            continue;
         }
         // Rayleigh–Ritz, Ritz values descending.
         let (vals, vecs) = sym_eigen(h.as_ref().submatrix(0, 0, d, d))?;
@@ -797,9 +803,13 @@ fn block_krylov(
 
 /// Orthonormal basis of the part of the first `c` columns of `x` (scratch,
 /// `n × c`, destroyed; `x2` likewise) orthogonal to the orthonormal columns
-/// `V[:, :d]`, written to `V[:, d..d + nb]` (`nb ≤ c`): two projection
-/// passes, Householder QR, one more pass and QR again. With `r`, the `c × c`
-/// factor with `(I − V Vᵀ) x ≈ Q R` (the product of both QR factors).
+/// `V[:, :d]`, written to `V[:, d..d + nb]` (`nb ≤ c`): block classical
+/// Gram–Schmidt with reorthogonalisation (BCGS2), each projection pass
+/// followed by a Householder QR of the block; a further pass is made while a
+/// pass shrinks some direction below half its length (Kahan–Parlett's
+/// "twice is enough" test, at most two extra passes). With `first_done`,
+/// `coef` already holds `V[:, :d]ᵀ x` (computed with `H`). With `r`, the
+/// `c × c` factor with `(I − V Vᵀ) x ≈ Q R` (the product of the QR factors).
 #[allow(clippy::too_many_arguments)]
 fn orthonormalise_into(
     v: &mut [f64],
@@ -810,23 +820,49 @@ fn orthonormalise_into(
     c: usize,
     nb: usize,
     coef: &mut Mat<f64>,
+    first_done: bool,
     r: Option<&mut DMatrix<f64>>,
 ) {
     let (basis, rest) = v.split_at_mut(d * n);
     let basis = MatRef::from_column_major_slice(basis, n, d);
-    let mut xm = fcols_mut(x, n, 0, c);
-    project_out(basis, xm.rb_mut(), coef);
-    project_out(basis, xm.rb_mut(), coef);
-    let mut r1 = DMatrix::zeros(0, 0);
-    let mut r2 = DMatrix::zeros(0, 0);
-    let want_r = r.is_some();
-    let mut q1 = fcols_mut(x2, n, 0, c);
-    thin_qr(xm.rb_mut(), q1.rb_mut(), want_r.then_some(&mut r1));
-    project_out(basis, q1.rb_mut(), coef);
-    thin_qr(q1, xm.rb_mut(), want_r.then_some(&mut r2));
-    rest[..n * nb].copy_from_slice(&x[..n * nb]);
+    let (mut src, mut dst) = (&mut x[..n * c], &mut x2[..n * c]);
+    if first_done {
+        if d > 0 {
+            gemm(
+                MatMut::from_column_major_slice_mut(src, n, c),
+                Accum::Add,
+                basis,
+                coef.as_ref(),
+                -1.0,
+            );
+        }
+    } else {
+        project_out(basis, MatMut::from_column_major_slice_mut(src, n, c), coef);
+    }
+    let mut r_acc = DMatrix::zeros(0, 0);
+    thin_qr(
+        MatMut::from_column_major_slice_mut(src, n, c),
+        MatMut::from_column_major_slice_mut(dst, n, c),
+        Some(&mut r_acc),
+    );
+    std::mem::swap(&mut src, &mut dst);
+    let mut rp = DMatrix::zeros(0, 0);
+    for _pass in 0..3 {
+        project_out(basis, MatMut::from_column_major_slice_mut(src, n, c), coef);
+        thin_qr(
+            MatMut::from_column_major_slice_mut(src, n, c),
+            MatMut::from_column_major_slice_mut(dst, n, c),
+            Some(&mut rp),
+        );
+        std::mem::swap(&mut src, &mut dst);
+        r_acc = &rp * &r_acc;
+        if (0..c).all(|i| rp[(i, i)].abs() >= 0.5) {
+            break;
+        }
+    }
+    rest[..n * nb].copy_from_slice(&src[..n * nb]);
     if let Some(r) = r {
-        *r = &r2 * &r1;
+        *r = r_acc;
     }
 }
 
