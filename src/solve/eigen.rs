@@ -1050,16 +1050,19 @@ fn sign_weight(r: u64, i: usize) -> f64 {
 pub fn canonicalize_signs(vectors: &mut DMatrix<f64>, m: &[f64]) {
     let n = vectors.nrows();
     assert_eq!(m.len(), n, "one mass per row");
+    // (M w_r, ‖w_r‖²_M), computed when first needed.
+    let mut weights: Vec<(Vec<f64>, f64)> = Vec::new();
     for mut col in vectors.column_iter_mut() {
         let norm2: f64 = col.iter().zip(m).map(|(x, w)| w * x * x).sum();
         let mut sign = 0.0;
         for r in 0..SIGN_WEIGHTS {
-            let (mut p, mut w2) = (0.0, 0.0);
-            for (i, (&x, &mi)) in col.iter().zip(m).enumerate() {
-                let w = sign_weight(r, i);
-                p += mi * w * x;
-                w2 += mi * w * w;
+            if weights.len() <= r as usize {
+                let mw: Vec<f64> = (0..n).map(|i| m[i] * sign_weight(r, i)).collect();
+                let w2 = (0..n).map(|i| mw[i] * sign_weight(r, i)).sum();
+                weights.push((mw, w2));
             }
+            let (mw, w2) = &weights[r as usize];
+            let p: f64 = col.iter().zip(mw).map(|(x, w)| w * x).sum();
             if p.abs() > SIGN_TAU * (norm2 * w2).sqrt() {
                 sign = p.signum();
                 break;
@@ -1081,18 +1084,41 @@ pub fn canonicalize_signs(vectors: &mut DMatrix<f64>, m: &[f64]) {
 }
 
 /// `out = L X` for the `c` columns of the column-major `x` (`L` sparse CSC,
-/// `n × n`).
+/// `n × n`). Works on row-major copies of up to [`SPMM_CHUNK`] columns, so
+/// that each stored entry of `L` updates a contiguous short row (the sums
+/// are formed in the same order as column by column).
 fn sparse_times(l: &SparseMatrix, x: &[f64], out: &mut [f64], c: usize) {
     let n = l.nrows();
     let (offsets, rows, vals) = (l.col_offsets(), l.row_indices(), l.values());
-    for j in 0..c {
-        let xj = &x[j * n..(j + 1) * n];
-        let oj = &mut out[j * n..(j + 1) * n];
-        oj.fill(0.0);
-        for (col, &xc) in xj.iter().enumerate() {
+    let width = c.min(SPMM_CHUNK);
+    let mut xt = vec![0.0f64; n * width];
+    let mut ot = vec![0.0f64; n * width];
+    for j0 in (0..c).step_by(SPMM_CHUNK) {
+        let w = (c - j0).min(SPMM_CHUNK);
+        for jj in 0..w {
+            let col = &x[(j0 + jj) * n..(j0 + jj + 1) * n];
+            for (i, &v) in col.iter().enumerate() {
+                xt[i * w + jj] = v;
+            }
+        }
+        ot[..n * w].fill(0.0);
+        for col in 0..n {
+            let xc = &xt[col * w..(col + 1) * w];
             for e in offsets[col]..offsets[col + 1] {
-                oj[rows[e]] += vals[e] * xc;
+                let (r, v) = (rows[e], vals[e]);
+                for (o, &xv) in ot[r * w..(r + 1) * w].iter_mut().zip(xc) {
+                    *o += v * xv;
+                }
+            }
+        }
+        for jj in 0..w {
+            let col = &mut out[(j0 + jj) * n..(j0 + jj + 1) * n];
+            for (i, o) in col.iter_mut().enumerate() {
+                *o = ot[i * w + jj];
             }
         }
     }
 }
+
+/// Columns per pass of [`sparse_times`].
+const SPMM_CHUNK: usize = 16;
