@@ -6,7 +6,8 @@
 //! reorthogonalisation and thick restarts, written here) on the symmetric
 //! operator `A = s · M^{½} (L + sM)^{-1} M^{½}`, whose largest eigenvalues
 //! `s / (λ + s)` belong to the smallest `λ`; `L + sM` is factorised once with
-//! [`SparseCholesky`] and applied to whole blocks. The shift `−s` is negative
+//! [`SparseCholesky`] (supernodal, whose solves work on dense blocks) and
+//! applied to whole blocks. The shift `−s` is negative
 //! because `L` is singular on closed meshes. The converged Ritz vectors
 //! (`φ = M^{-½} u`) are then refined by a few steps of subspace iteration with
 //! Rayleigh–Ritz on `(L, M)` themselves, which removes the rounding noise of
@@ -32,6 +33,15 @@
 //!    `σ` just below the largest returned eigenvalue, must have exactly as many
 //!    negative pivots as there are returned eigenvalues below `σ`. A skipped
 //!    cluster member makes the count larger.
+//!
+//! The LDLᵀ reuses the symbolic analysis (ordering, elimination tree) of
+//! `L + sM`, which has the same pattern.
+//!
+//! **Cost.** The dense work (Gram–Schmidt against the basis, Rayleigh–Ritz,
+//! restarts, refinement) runs with faer's blocked products, QR and symmetric
+//! eigensolver, sequentially, on `n × d` buffers allocated once per solve;
+//! convergence is screened with the block-Lanczos residual estimate before
+//! explicit residuals are formed (see `block_krylov`).
 //!
 //! If a check fails the solve is repeated with a twice larger block and
 //! subspace and another random start; after `max_attempts` it returns
