@@ -1,10 +1,13 @@
 //! Generalised eigenpairs: sparse block-Krylov path against the dense path,
-//! verification output, bad inputs.
+//! verification output, bad inputs, canonical eigenvector signs.
 
 use deformlab::mesh::primitives::{grid, torus};
+use deformlab::mesh::Mesh;
 use deformlab::ops::{cotan_laplacian, mass_matrix, MassKind};
-use deformlab::solve::{generalized_eigen, mass_diagonal, sparse_diagonal, EigenOptions};
-use deformlab::Error;
+use deformlab::solve::{
+    canonicalize_signs, generalized_eigen, mass_diagonal, sparse_diagonal, EigenOptions, DENSE_MAX,
+};
+use deformlab::{Error, Point};
 use nalgebra::DMatrix;
 
 /// Dense reference: eigenvalues of M^{-½} L M^{-½}, ascending.
@@ -92,4 +95,128 @@ fn bad_inputs_are_errors() {
     assert!(e.to_string().contains("mass of row 3"), "{e}");
     // Non-diagonal sparse mass is refused.
     assert!(mass_diagonal(&l).is_err());
+}
+
+/// A 24 × 19 grid (500 vertices, above the dense cut-off) stretched and bent
+/// into an asymmetric surface: no symmetry, so its eigenvalues are simple.
+fn asymmetric_sheet() -> Mesh {
+    let g = grid(24, 19);
+    let vertices = g
+        .vertices()
+        .iter()
+        .map(|p| {
+            let (x, y) = (1.3 * p.x, p.y);
+            Point::new(x, y, 0.15 * x * x * y + 0.1 * y * y * y - 0.05 * x)
+        })
+        .collect();
+    Mesh::new(vertices, g.faces().to_vec()).unwrap()
+}
+
+#[test]
+fn eigenvectors_do_not_depend_on_seed_block_or_path() {
+    let mesh = asymmetric_sheet();
+    assert!(mesh.n_vertices() > DENSE_MAX);
+    let l = cotan_laplacian(&mesh);
+    let m = mass_matrix(&mesh, MassKind::Voronoi);
+    let k = 12;
+    let runs = [
+        EigenOptions::default(),
+        EigenOptions {
+            seed: 12345,
+            block_size: 5,
+            ..EigenOptions::default()
+        },
+        EigenOptions {
+            seed: 777,
+            block_size: 11,
+            max_dim: 60,
+            ..EigenOptions::default()
+        },
+        // A subspace as large as the problem: the dense path.
+        EigenOptions {
+            max_dim: mesh.n_vertices(),
+            ..EigenOptions::default()
+        },
+    ];
+    let results: Vec<_> = runs
+        .iter()
+        .map(|o| generalized_eigen(&l, &m, k, o).unwrap())
+        .collect();
+    assert!(results[0].subspace_dim > 0 && results[2].subspace_dim > 0);
+    assert_eq!(results[3].subspace_dim, 0, "expected the dense path");
+    let reference = dense_values(&l, &m);
+    // Simple eigenvalues (relative gaps well above the accuracy).
+    for i in 1..k {
+        let gap = (reference[i + 1] - reference[i]).min(reference[i] - reference[i - 1]);
+        assert!(gap > 1e-3 * reference[i], "λ{i} is not simple: gap {gap}");
+    }
+    let base = &results[0];
+    for (r, other) in results.iter().enumerate().skip(1) {
+        let mut worst = 0.0f64;
+        for j in 0..k {
+            // Not up to sign: the vectors themselves agree.
+            let d: f64 = (0..m.len())
+                .map(|i| m[i] * (base.vectors[(i, j)] - other.vectors[(i, j)]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            worst = worst.max(d);
+        }
+        eprintln!("run {r}: max ‖φ − φ'‖_M = {worst:.3e}");
+        assert!(worst < 1e-6, "run {r}: max ‖φ − φ'‖_M = {worst:.3e}");
+    }
+    // The constant eigenvector (λ₀ = 0) is positive.
+    assert!(base.vectors.column(0).iter().all(|&x| x > 0.0));
+}
+
+#[test]
+fn canonical_sign_is_idempotent_and_sign_blind() {
+    let mesh = asymmetric_sheet();
+    let l = cotan_laplacian(&mesh);
+    let m = mass_matrix(&mesh, MassKind::Voronoi);
+    let eig = generalized_eigen(&l, &m, 8, &EigenOptions::default()).unwrap();
+    let n = m.len();
+    // Solver output is already canonical: canonicalising again changes nothing.
+    let mut again = eig.vectors.clone();
+    canonicalize_signs(&mut again, &m);
+    assert!(
+        again == eig.vectors,
+        "canonicalising twice changed the vectors"
+    );
+    // Flipping any subset of columns gives back exactly the canonical vectors.
+    let mut flipped = eig.vectors.clone();
+    for j in (0..8).step_by(2) {
+        flipped.column_mut(j).neg_mut();
+    }
+    canonicalize_signs(&mut flipped, &m);
+    assert!(flipped == eig.vectors, "flipped columns did not come back");
+    // Vectors built to defeat a "largest entry is positive" rule: two entries
+    // of equal magnitude and opposite sign, and antisymmetric profiles.
+    let mut x = DMatrix::<f64>::from_fn(n, 3, |i, j| match j {
+        0 => (i as f64 * 0.37).sin(),
+        1 => {
+            if i == 3 {
+                1.0
+            } else if i == n - 4 {
+                -1.0
+            } else {
+                0.0
+            }
+        }
+        _ => i as f64 - (n as f64 - 1.0) / 2.0,
+    });
+    canonicalize_signs(&mut x, &m);
+    let mut y = -x.clone();
+    canonicalize_signs(&mut y, &m);
+    assert!(x == y, "φ and −φ canonicalise differently");
+    let mut z = x.clone();
+    canonicalize_signs(&mut z, &m);
+    assert!(x == z, "not idempotent");
+    // A small perturbation does not change the chosen signs.
+    let mut p = DMatrix::<f64>::from_fn(n, 3, |i, j| {
+        x[(i, j)] * (1.0 + 1e-9 * ((i + j) as f64).cos())
+    });
+    canonicalize_signs(&mut p, &m);
+    for j in 0..3 {
+        assert!(p.column(j).dot(&x.column(j)) > 0.0, "column {j} flipped");
+    }
 }

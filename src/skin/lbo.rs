@@ -15,9 +15,13 @@
 //! Weights, eigenvalues and hence FBT's smoothness term (Eq. 6,
 //! `Λ = diag(μ_j²)`) are then independent of the units of the mesh.
 //!
-//! **Signs.** Eigenvectors are defined up to sign; each column is flipped
-//! so that its entry of largest magnitude (lowest index on ties) is
-//! positive, so results do not depend on the eigensolver's start vector.
+//! **Signs.** Eigenvectors are defined up to sign; the columns keep the
+//! canonical sign given by the eigensolver
+//! ([`crate::solve::canonicalize_signs`]: `⟨φ, w⟩_M > 0` for a fixed generic
+//! weight `w`), which depends only on the vector, not on the solver's start
+//! vector, block size or rounding — unlike "largest entry positive", which
+//! rounding decides on symmetric meshes. (For a repeated eigenvalue the basis
+//! of its eigenspace is arbitrary anyway.)
 
 use nalgebra::DMatrix;
 
@@ -65,19 +69,7 @@ pub fn lbo_basis(mesh: &Mesh, m: usize, opts: &EigenOptions) -> Result<LboBasis>
     let area: f64 = mass.iter().sum();
     let eig = generalized_eigen(&l, &mass, m, opts)?;
     let s = area.sqrt();
-    let mut weights = eig.vectors * s;
-    for j in 0..m {
-        let mut col = weights.column_mut(j);
-        let mut best = (0.0_f64, 0usize);
-        for (i, v) in col.iter().enumerate() {
-            if v.abs() > best.0 {
-                best = (v.abs(), i);
-            }
-        }
-        if col[best.1] < 0.0 {
-            col.neg_mut();
-        }
-    }
+    let weights = eig.vectors * s;
     Ok(LboBasis {
         weights,
         values: eig.values.iter().map(|l| l * area).collect(),

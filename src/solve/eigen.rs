@@ -6,7 +6,8 @@
 //! reorthogonalisation and thick restarts, written here) on the symmetric
 //! operator `A = s · M^{½} (L + sM)^{-1} M^{½}`, whose largest eigenvalues
 //! `s / (λ + s)` belong to the smallest `λ`; `L + sM` is factorised once with
-//! [`SparseCholesky`] and applied to whole blocks. The shift `−s` is negative
+//! [`SparseCholesky`] (supernodal, whose solves work on dense blocks) and
+//! applied to whole blocks. The shift `−s` is negative
 //! because `L` is singular on closed meshes. The converged Ritz vectors
 //! (`φ = M^{-½} u`) are then refined by a few steps of subspace iteration with
 //! Rayleigh–Ritz on `(L, M)` themselves, which removes the rounding noise of
@@ -33,13 +34,31 @@
 //!    negative pivots as there are returned eigenvalues below `σ`. A skipped
 //!    cluster member makes the count larger.
 //!
+//! The LDLᵀ reuses the symbolic analysis (ordering, elimination tree) of
+//! `L + sM`, which has the same pattern.
+//!
+//! **Cost.** The dense work (Gram–Schmidt against the basis, Rayleigh–Ritz,
+//! restarts, refinement) runs with faer's blocked products, QR and symmetric
+//! eigensolver, sequentially, on `n × d` buffers allocated once per solve;
+//! convergence is screened with the block-Lanczos residual estimate before
+//! explicit residuals are formed (see `block_krylov`).
+//!
 //! If a check fails the solve is repeated with a twice larger block and
 //! subspace and another random start; after `max_attempts` it returns
 //! [`Error::Numerical`] saying which check failed.
 //!
 //! Small problems (`n ≤ DENSE_MAX`, or a subspace as large as `n`) are solved
 //! densely with nalgebra's symmetric eigensolver and verified the same way.
+//!
+//! **Signs.** Every returned eigenvector has a canonical sign that depends
+//! only on the vector (and the masses), not on the random start, the block
+//! size, the path (dense or Krylov) or rounding: see
+//! [`canonicalize_signs`]. Within the eigenspace of a repeated eigenvalue the
+//! returned basis is still arbitrary.
 
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::reborrow::{Reborrow, ReborrowMut};
+use faer::{Accum, Conj, Mat, MatMut, MatRef, Par};
 use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 
@@ -221,7 +240,7 @@ pub fn generalized_eigen(
         )
     };
     let k_mat = pencil(-shift);
-    let symbolic = SymbolicCholesky::new(&k_mat)?;
+    let symbolic = SymbolicCholesky::new_supernodal(&k_mat)?;
     let chol = symbolic.factorize(&k_mat)?;
     let op = ShiftInvert {
         chol: &chol,
@@ -282,29 +301,56 @@ impl Context<'_> {
         mut basis: DMatrix<f64>,
         k: usize,
     ) -> Result<(Vec<f64>, DMatrix<f64>)> {
-        let n = basis.nrows();
+        let (n, p) = basis.shape();
+        let mut y = vec![0.0f64; n * p];
+        let mut q = vec![0.0f64; n * p];
+        let mut lz = vec![0.0f64; n * p];
+        let mut lphi = vec![0.0f64; n * k];
+        let mut h = Mat::<f64>::zeros(p, p);
         let mut last = f64::INFINITY;
         for step in 0..REFINE_STEPS {
             // Z = K⁻¹ M Φ via the symmetric operator: K⁻¹ M φ = M^{-½} A M^{½} φ / s.
-            let y = DMatrix::from_fn(n, basis.ncols(), |i, j| basis[(i, j)] * op.sqrt_m[i]);
-            let ay = op.apply_block(&y)?;
+            for (yc, bc) in y.chunks_exact_mut(n).zip(basis.as_slice().chunks_exact(n)) {
+                for ((yi, &bi), s) in yc.iter_mut().zip(bc).zip(&op.sqrt_m) {
+                    *yi = bi * s;
+                }
+            }
+            op.apply_in_place(&mut y, p)?;
             // M-orthonormal basis of Z: Euclidean QR of M^{½} Z = A y / s.
-            let q = ay.qr().q();
-            let z = DMatrix::from_fn(n, q.ncols(), |i, j| q[(i, j)] / op.sqrt_m[i]);
-            let lz: DMatrix<f64> = self.l * &z;
-            let h = z.transpose() * &lz;
-            let h = (&h + h.transpose()) * 0.5;
-            let eig = nalgebra::SymmetricEigen::new(h);
-            let mut order: Vec<usize> = (0..eig.eigenvalues.len()).collect();
-            order.sort_by(|&x, &y| eig.eigenvalues[x].total_cmp(&eig.eigenvalues[y]));
-            let yy = DMatrix::from_fn(order.len(), order.len(), |i, j| {
-                eig.eigenvectors[(i, order[j])]
-            });
-            basis = &z * yy;
-            let lead = basis.columns(0, k).into_owned();
-            let res = self.max_residual(&lead);
+            thin_qr(fcols_mut(&mut y, n, 0, p), fcols_mut(&mut q, n, 0, p), None);
+            for col in q.chunks_exact_mut(n) {
+                for (zi, s) in col.iter_mut().zip(&op.sqrt_m) {
+                    *zi /= s;
+                }
+            }
+            // Rayleigh–Ritz with L and M = I on span(Z).
+            sparse_times(self.l, &q, &mut lz, p);
+            gemm(
+                h.as_mut(),
+                Accum::Replace,
+                fcols(&q, n, 0, p).transpose(),
+                fcols(&lz, n, 0, p),
+                1.0,
+            );
+            for j in 0..p {
+                for i in 0..j {
+                    let s = 0.5 * (h[(i, j)] + h[(j, i)]);
+                    h[(i, j)] = s;
+                    h[(j, i)] = s;
+                }
+            }
+            let (vals, vecs) = sym_eigen(h.as_ref())?;
+            gemm(
+                fview_mut(&mut basis),
+                Accum::Replace,
+                fcols(&q, n, 0, p),
+                fview(&vecs),
+                1.0,
+            );
+            let res = self.max_residual(&basis.as_slice()[..n * k], &mut lphi, k);
             if res <= 0.25 * self.opts.residual_tol {
-                let values = (0..k).map(|j| eig.eigenvalues[order[j]]).collect();
+                let values = vals[..k].to_vec();
+                let lead = DMatrix::from_column_slice(n, k, &basis.as_slice()[..n * k]);
                 return Ok((values, lead));
             }
             if res > 0.9 * last && step >= 2 {
@@ -318,28 +364,33 @@ impl Context<'_> {
         )))
     }
 
-    /// Largest relative residual `‖Lφ − λMφ‖_{M⁻¹} / (max(|λ|, λ_scale) ‖φ‖_M)`
-    /// over the columns, λ the Rayleigh quotient.
-    fn max_residual(&self, vectors: &DMatrix<f64>) -> f64 {
-        let lphi: DMatrix<f64> = self.l * vectors;
-        (0..vectors.ncols())
-            .map(|j| self.residual(vectors, &lphi, j).1)
+    /// Largest relative residual over the `k` columns of the column-major
+    /// `vectors` (`lphi`: `n × k` scratch for `L Φ`).
+    fn max_residual(&self, vectors: &[f64], lphi: &mut [f64], k: usize) -> f64 {
+        let n = self.m.len();
+        sparse_times(self.l, vectors, lphi, k);
+        (0..k)
+            .map(|j| {
+                let r = j * n..(j + 1) * n;
+                self.residual(&vectors[r.clone()], &lphi[r]).1
+            })
             .fold(0.0, f64::max)
     }
 
-    /// (Rayleigh quotient, relative residual) of column `j`.
-    fn residual(&self, vectors: &DMatrix<f64>, lphi: &DMatrix<f64>, j: usize) -> (f64, f64) {
+    /// (Rayleigh quotient, relative residual
+    /// `‖Lφ − λMφ‖_{M⁻¹} / (max(|λ|, λ_scale) ‖φ‖_M)`) of `φ`, given `Lφ`.
+    fn residual(&self, phi: &[f64], lphi: &[f64]) -> (f64, f64) {
         let m = self.m;
         let (mut num, mut p2) = (0.0, 0.0);
-        for i in 0..vectors.nrows() {
-            num += vectors[(i, j)] * lphi[(i, j)];
-            p2 += vectors[(i, j)] * vectors[(i, j)] * m[i];
+        for ((&x, &lx), &mi) in phi.iter().zip(lphi).zip(m) {
+            num += x * lx;
+            p2 += x * x * mi;
         }
         let lam = num / p2;
         let mut r2 = 0.0;
-        for i in 0..vectors.nrows() {
-            let r = lphi[(i, j)] - lam * m[i] * vectors[(i, j)];
-            r2 += r * r / m[i];
+        for ((&x, &lx), &mi) in phi.iter().zip(lphi).zip(m) {
+            let r = lx - lam * mi * x;
+            r2 += r * r / mi;
         }
         let rel = r2.sqrt() / (lam.abs().max(self.lambda_scale) * p2.sqrt());
         (lam, if rel.is_nan() { f64::INFINITY } else { rel })
@@ -355,15 +406,14 @@ impl Context<'_> {
         attempts: usize,
         inertia: Option<(&SymbolicCholesky, &dyn Fn(f64) -> SparseMatrix)>,
     ) -> Result<Eigenpairs> {
-        let (l, m) = (self.l, self.m);
-        let k = vectors.ncols();
-        let lphi: DMatrix<f64> = l * &vectors;
+        let m = self.m;
+        let (n, k) = vectors.shape();
+        let mut lphi = vec![0.0f64; n * k];
+        sparse_times(self.l, vectors.as_slice(), &mut lphi, k);
         let mut pairs: Vec<(f64, usize)> = (0..k)
             .map(|j| {
-                let phi = vectors.column(j);
-                let num = phi.dot(&lphi.column(j));
-                let den: f64 = phi.iter().zip(m).map(|(x, w)| x * x * w).sum();
-                (num / den, j)
+                let r = j * n..(j + 1) * n;
+                (self.residual(&vectors.as_slice()[r.clone()], &lphi[r]).0, j)
             })
             .collect();
         if pairs.iter().any(|p| !p.0.is_finite()) {
@@ -371,13 +421,21 @@ impl Context<'_> {
         }
         pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
         let values: Vec<f64> = pairs.iter().map(|p| p.0).collect();
-        let vectors = DMatrix::from_fn(vectors.nrows(), k, |i, j| vectors[(i, pairs[j].1)]);
-        let lphi = DMatrix::from_fn(vectors.nrows(), k, |i, j| lphi[(i, pairs[j].1)]);
+        let (mut vectors, lphi) = if pairs.iter().enumerate().all(|(j, p)| p.1 == j) {
+            (vectors, lphi)
+        } else {
+            let v = DMatrix::from_fn(n, k, |i, j| vectors[(i, pairs[j].1)]);
+            let lp = (0..k)
+                .flat_map(|j| lphi[pairs[j].1 * n..(pairs[j].1 + 1) * n].iter().copied())
+                .collect();
+            (v, lp)
+        };
 
         // Residuals in the M⁻¹ norm, relative to max(λ, λ_scale).
         let mut max_residual = 0.0f64;
         for (j, &lam) in values.iter().enumerate() {
-            let rel = self.residual(&vectors, &lphi, j).1;
+            let r = j * n..(j + 1) * n;
+            let rel = self.residual(&vectors.as_slice()[r.clone()], &lphi[r]).1;
             max_residual = max_residual.max(rel);
             if rel.is_nan() || rel > self.opts.residual_tol {
                 return Err(Error::numerical(format!(
@@ -387,9 +445,18 @@ impl Context<'_> {
                 )));
             }
         }
+        drop(lphi);
         // M-orthonormality.
-        let mphi = DMatrix::from_fn(vectors.nrows(), k, |i, j| m[i] * vectors[(i, j)]);
-        let gram = vectors.transpose() * mphi;
+        let mphi = DMatrix::from_fn(n, k, |i, j| m[i] * vectors[(i, j)]);
+        let mut gram = DMatrix::<f64>::zeros(k, k);
+        gemm(
+            fview_mut(&mut gram),
+            Accum::Replace,
+            fview(&vectors).transpose(),
+            fview(&mphi),
+            1.0,
+        );
+        drop(mphi);
         let orthonormality_error = (gram - DMatrix::identity(k, k)).abs().max();
         if orthonormality_error.is_nan() || orthonormality_error > self.opts.orthonormality_tol {
             return Err(Error::numerical(format!(
@@ -426,6 +493,7 @@ impl Context<'_> {
                 ));
             }
         }
+        canonicalize_signs(&mut vectors, m);
         Ok(Eigenpairs {
             values,
             vectors,
@@ -472,13 +540,26 @@ impl std::fmt::Debug for ShiftInvert<'_> {
 ///
 /// The basis `V` (orthonormal, `n × d`) grows by blocks of `b` vectors, the
 /// next block being the part of `A V_last` orthogonal to `V`; the projected
-/// matrix `H = Vᵀ A V` is updated incrementally and its Ritz pairs are tested
-/// with explicit residuals `‖A u − θ u‖ ≤ tol θ`. When `d` would exceed
+/// matrix `H = Vᵀ A V` is updated incrementally. When `d` would exceed
 /// `max_dim`, the basis is compressed to its best Ritz vectors (`A V` is
 /// compressed the same way, without new solves). A random start block of `b`
 /// columns resolves eigenvalues of multiplicity up to `b` reliably — unlike a
 /// single-vector Lanczos, which only finds further members of a repeated
 /// eigenvalue through rounding noise.
+///
+/// *Convergence test.* The Ritz pairs `(θ, u = V y)` are accepted when their
+/// explicit residuals `‖A u − θ u‖ ≤ tol θ`. Forming `u` and `A u` costs two
+/// `n × d × k` products, so every step first screens with the block-Lanczos
+/// estimate: the next block is orthonormalised before the Rayleigh–Ritz step,
+/// `(I − V Vᵀ) A V_last = Q R`, and `‖A u − θ u‖ ≈ ‖R y_last‖` (`y_last`:
+/// the rows of `y` of the last block; exact up to rounding and the
+/// asymmetry of the computed solves). Explicit residuals are computed only
+/// when the estimate says converged (or stagnated), and at restarts, where
+/// the compressed basis gives them for free; only they decide.
+///
+/// Dense work runs on buffers allocated once, with faer's blocked products,
+/// QR and symmetric eigensolver; the orthonormalisation of a block is block
+/// classical Gram–Schmidt twice, Householder QR, once more and QR again.
 fn block_krylov(
     op: &ShiftInvert<'_>,
     k: usize,
@@ -494,56 +575,176 @@ fn block_krylov(
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let start = DMatrix::<f64>::from_fn(n, b, |_, _| rng.random::<f64>() - 0.5);
 
-    let mut v = DMatrix::<f64>::zeros(n, max_dim);
-    let mut w = DMatrix::<f64>::zeros(n, max_dim);
-    let mut h = DMatrix::<f64>::zeros(max_dim, max_dim);
+    // V and W = A V, column-major n × max_dim.
+    let mut v = vec![0.0f64; n * max_dim];
+    let mut w = vec![0.0f64; n * max_dim];
+    let mut h = Mat::<f64>::zeros(max_dim, max_dim);
+    // Scratch: the block being orthonormalised, projection coefficients,
+    // Ritz vectors and their images.
+    let mut x = vec![0.0f64; n * b];
+    let mut x2 = vec![0.0f64; n * b];
+    let mut coef = Mat::<f64>::zeros(max_dim, b);
+    let mut ritz_u: Vec<f64> = Vec::new();
+    let mut ritz_au: Vec<f64> = Vec::new();
+
     let mut d = 0usize;
-    let mut next = start;
+    // The next block: raw (to be orthonormalised against V[:, :d]) in `x`, or
+    // already orthonormalised into V[:, d..d + nb] with its R factor.
+    x[..n * b].copy_from_slice(start.as_slice());
+    let mut x_cols = b;
+    let mut prepared: Option<usize> = None;
     let max_steps = 200 + 20 * max_dim / b;
     let mut solves = 0usize;
     let mut best = f64::INFINITY;
     let mut since_best = 0usize;
+    let mut explicit_mode = false;
     for _step in 0..max_steps {
-        // Orthonormalise the new block against the basis.
-        let q = orthonormalise_against(&v.columns(0, d), next);
-        let nb = q.ncols().min(max_dim - d);
-        if nb == 0 {
-            break;
-        }
-        let q = q.columns(0, nb).into_owned();
-        let aq = op.apply_block(&q)?;
+        let nb = match prepared.take() {
+            Some(nb) => nb,
+            None => {
+                let nb = x_cols.min(max_dim - d);
+                if nb == 0 {
+                    break;
+                }
+                orthonormalise_into(
+                    &mut v, &mut x, &mut x2, n, d, x_cols, nb, &mut coef, false, None,
+                );
+                nb
+            }
+        };
+        // W[:, d..d+nb] = A V[:, d..d+nb].
+        w[d * n..(d + nb) * n].copy_from_slice(&v[d * n..(d + nb) * n]);
+        op.apply_in_place(&mut w[d * n..(d + nb) * n], nb)?;
         solves += nb;
-        // H[:, new] = Vᵀ A q, H[new, new] = qᵀ A q.
-        let cross = v.columns(0, d).transpose() * &aq;
-        let inner = q.transpose() * &aq;
-        h.view_mut((0, d), (d, nb)).copy_from(&cross);
-        h.view_mut((d, 0), (nb, d)).copy_from(&cross.transpose());
-        h.view_mut((d, d), (nb, nb))
-            .copy_from(&((&inner + inner.transpose()) * 0.5));
-        v.columns_mut(d, nb).copy_from(&q);
-        w.columns_mut(d, nb).copy_from(&aq);
-        d += nb;
+        // C = V[:, :d+nb]ᵀ A q: the new columns of H (mirrored, the new
+        // diagonal block symmetrised) and the first Gram–Schmidt pass of
+        // the next block A q against V.
+        let dn = d + nb;
+        coef.resize_with(dn, nb, |_, _| 0.0);
+        gemm(
+            coef.as_mut(),
+            Accum::Replace,
+            fcols(&v, n, 0, dn).transpose(),
+            fcols(&w, n, d, nb),
+            1.0,
+        );
+        h.as_mut()
+            .submatrix_mut(0, d, dn, nb)
+            .copy_from(coef.as_ref());
+        for j in d..dn {
+            for i in 0..d {
+                h[(j, i)] = h[(i, j)];
+            }
+            for i in d..j {
+                let s = 0.5 * (h[(i, j)] + h[(j, i)]);
+                h[(i, j)] = s;
+                h[(j, i)] = s;
+            }
+        }
+        d = dn;
+        let restart = d + b > max_dim;
+        // The next block, orthonormalised now (for the residual estimate),
+        // except at a restart, which replaces it.
+        let mut r_next = None;
+        if !restart {
+            x[..n * nb].copy_from_slice(&w[(d - nb) * n..d * n]);
+            let nn = nb.min(max_dim - d);
+            let mut r = DMatrix::zeros(0, 0);
+            orthonormalise_into(
+                &mut v,
+                &mut x,
+                &mut x2,
+                n,
+                d,
+                nb,
+                nn,
+                &mut coef,
+                true,
+                Some(&mut r),
+            );
+            prepared = Some(nn);
+            r_next = Some(r);
+        }
         if d < k {
-            next = aq;
             continue;
         }
-        // Rayleigh–Ritz.
-        let eig = nalgebra::SymmetricEigen::new(h.view((0, 0), (d, d)).into_owned());
-        let mut order: Vec<usize> = (0..d).collect();
-        order.sort_by(|&x, &y| eig.eigenvalues[y].total_cmp(&eig.eigenvalues[x]));
-        let yk = DMatrix::from_fn(d, k, |i, j| eig.eigenvectors[(i, order[j])]);
-        let u = v.columns(0, d) * &yk;
-        let au = w.columns(0, d) * &yk;
-        let mut worst = 0.0f64;
-        for (j, &oj) in order.iter().enumerate().take(k) {
-            let theta = eig.eigenvalues[oj];
-            let r = (au.column(j) - u.column(j) * theta).norm();
-            worst = worst.max(if theta > 0.0 {
-                r / theta
-            } else {
-                f64::INFINITY
-            });
-        }
+        // Rayleigh–Ritz, Ritz values descending.
+        let (vals, vecs) = sym_eigen(h.as_ref().submatrix(0, 0, d, d))?;
+        let order: Vec<usize> = (0..d).rev().collect();
+        let theta = |j: usize| vals[order[j]];
+        let ycols = |c: usize| DMatrix::from_fn(d, c, |i, j| vecs[(i, order[j])]);
+        let rel = |r: f64, th: f64| if th > 0.0 { r / th } else { f64::INFINITY };
+
+        // Explicit residuals of the first `k` Ritz pairs from U = V Y and
+        // A U = W Y (`c ≥ k` columns).
+        let explicit = |u: &[f64], au: &[f64]| {
+            (0..k)
+                .map(|j| {
+                    let th = theta(j);
+                    let r2: f64 = u[j * n..(j + 1) * n]
+                        .iter()
+                        .zip(&au[j * n..(j + 1) * n])
+                        .map(|(&a, &b)| (b - a * th).powi(2))
+                        .sum();
+                    rel(r2.sqrt(), th)
+                })
+                .fold(0.0f64, f64::max)
+        };
+        let ritz = |c: usize, u: &mut Vec<f64>, au: &mut Vec<f64>| {
+            let y = ycols(c);
+            u.resize(n * c, 0.0);
+            au.resize(n * c, 0.0);
+            gemm(
+                fcols_mut(u, n, 0, c),
+                Accum::Replace,
+                fcols(&v, n, 0, d),
+                fview(&y),
+                1.0,
+            );
+            gemm(
+                fcols_mut(au, n, 0, c),
+                Accum::Replace,
+                fcols(&w, n, 0, d),
+                fview(&y),
+                1.0,
+            );
+        };
+        let mut have_ritz = 0usize;
+        let worst = match &r_next {
+            Some(r) => {
+                let estimate = (0..k)
+                    .map(|j| {
+                        let o = order[j];
+                        let mut s2 = 0.0;
+                        for i in 0..r.nrows() {
+                            let mut t = 0.0;
+                            for l in i..r.ncols() {
+                                t += r[(i, l)] * vecs[(d - nb + l, o)];
+                            }
+                            s2 += t * t;
+                        }
+                        rel(s2.sqrt(), theta(j))
+                    })
+                    .fold(0.0f64, f64::max);
+                let might_stagnate = since_best + 1 > max_dim / b && estimate <= STAGNATION_OK;
+                // Once screened in, explicit residuals every step: near the
+                // accuracy floor of the solves the estimate (which does not
+                // see it) keeps falling while the explicit residual stalls.
+                explicit_mode |= estimate <= screen_tol || might_stagnate;
+                if explicit_mode {
+                    ritz(k, &mut ritz_u, &mut ritz_au);
+                    have_ritz = k;
+                    explicit(&ritz_u, &ritz_au)
+                } else {
+                    estimate
+                }
+            }
+            None => {
+                ritz(keep, &mut ritz_u, &mut ritz_au);
+                have_ritz = keep;
+                explicit(&ritz_u, &ritz_au)
+            }
+        };
         // Converged in operator space (limited by the accuracy of the solves,
         // ~ eps·cond(K)/θ): return the best `k + b` Ritz vectors, φ = M^{-½}u;
         // the caller refines them in the original pencil.
@@ -554,28 +755,31 @@ fn block_krylov(
             since_best += 1;
         }
         let stagnated = since_best > max_dim / b && worst <= STAGNATION_OK;
-        if worst <= screen_tol || stagnated {
+        if (worst <= screen_tol || stagnated) && have_ritz > 0 {
             let p = (k + b).min(d);
-            let yp = DMatrix::from_fn(d, p, |i, j| eig.eigenvectors[(i, order[j])]);
-            let up = v.columns(0, d) * &yp;
-            let vectors = DMatrix::from_fn(n, p, |i, j| up[(i, j)] / op.sqrt_m[i]);
+            if have_ritz < p {
+                ritz(p, &mut ritz_u, &mut ritz_au);
+            }
+            let vectors = DMatrix::from_fn(n, p, |i, j| ritz_u[j * n + i] / op.sqrt_m[i]);
             return Ok((vectors, solves));
         }
-        next = aq;
-        if d + b > max_dim {
+        if restart {
             // Thick restart: keep the best `keep` Ritz vectors (and their
             // images, no new solves). The next block is made of the residuals
             // `A u − θ u` of the first `b` unconverged wanted Ritz vectors
             // (then of the following ones), which carry the Krylov
             // continuation of the discarded basis.
-            let yp = DMatrix::from_fn(d, keep, |i, j| eig.eigenvectors[(i, order[j])]);
-            let vp = v.columns(0, d) * &yp;
-            let wp = w.columns(0, d) * &yp;
+            let res_norm = |j: usize| {
+                let th = theta(j);
+                ritz_u[j * n..(j + 1) * n]
+                    .iter()
+                    .zip(&ritz_au[j * n..(j + 1) * n])
+                    .map(|(&a, &b)| (b - a * th).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+            };
             let mut cols: Vec<usize> = (0..keep)
-                .filter(|&j| {
-                    let th = eig.eigenvalues[order[j]];
-                    (wp.column(j) - vp.column(j) * th).norm() > screen_tol * th.abs()
-                })
+                .filter(|&j| res_norm(j) > screen_tol * theta(j).abs())
                 .take(b)
                 .collect();
             let mut extra = 0;
@@ -585,17 +789,21 @@ fn block_krylov(
                 }
                 extra += 1;
             }
-            next = DMatrix::from_fn(n, cols.len(), |i, c| {
-                let j = cols[c];
-                wp[(i, j)] - vp[(i, j)] * eig.eigenvalues[order[j]]
-            });
-            v.columns_mut(0, keep).copy_from(&vp);
-            w.columns_mut(0, keep).copy_from(&wp);
+            for (c, &j) in cols.iter().enumerate() {
+                let th = theta(j);
+                for i in 0..n {
+                    x[c * n + i] = ritz_au[j * n + i] - ritz_u[j * n + i] * th;
+                }
+            }
+            x_cols = cols.len();
+            v[..n * keep].copy_from_slice(&ritz_u[..n * keep]);
+            w[..n * keep].copy_from_slice(&ritz_au[..n * keep]);
             h.fill(0.0);
             for j in 0..keep {
-                h[(j, j)] = eig.eigenvalues[order[j]];
+                h[(j, j)] = theta(j);
             }
             d = keep;
+            prepared = None;
         }
     }
     Err(Error::numerical(format!(
@@ -603,37 +811,324 @@ fn block_krylov(
     )))
 }
 
-/// Orthonormal basis of the part of `block` orthogonal to the orthonormal
-/// columns of `basis` (two projection passes, Householder QR, one more pass).
-fn orthonormalise_against(
-    basis: &nalgebra::DMatrixView<'_, f64>,
-    mut block: DMatrix<f64>,
-) -> DMatrix<f64> {
-    let project = |x: &mut DMatrix<f64>| {
-        if basis.ncols() > 0 {
-            let c = basis.transpose() * &*x;
-            *x -= basis * c;
+/// Orthonormal basis of the part of the first `c` columns of `x` (scratch,
+/// `n × c`, destroyed; `x2` likewise) orthogonal to the orthonormal columns
+/// `V[:, :d]`, written to `V[:, d..d + nb]` (`nb ≤ c`): block classical
+/// Gram–Schmidt with reorthogonalisation (BCGS2), each projection pass
+/// followed by a Householder QR of the block; a further pass is made while a
+/// pass shrinks some direction below half its length (Kahan–Parlett's
+/// "twice is enough" test, at most two extra passes). With `first_done`,
+/// `coef` already holds `V[:, :d]ᵀ x` (computed with `H`). With `r`, the
+/// `c × c` factor with `(I − V Vᵀ) x ≈ Q R` (the product of the QR factors).
+#[allow(clippy::too_many_arguments)]
+fn orthonormalise_into(
+    v: &mut [f64],
+    x: &mut [f64],
+    x2: &mut [f64],
+    n: usize,
+    d: usize,
+    c: usize,
+    nb: usize,
+    coef: &mut Mat<f64>,
+    first_done: bool,
+    r: Option<&mut DMatrix<f64>>,
+) {
+    let (basis, rest) = v.split_at_mut(d * n);
+    let basis = MatRef::from_column_major_slice(basis, n, d);
+    let (mut src, mut dst) = (&mut x[..n * c], &mut x2[..n * c]);
+    if first_done {
+        if d > 0 {
+            gemm(
+                MatMut::from_column_major_slice_mut(src, n, c),
+                Accum::Add,
+                basis,
+                coef.as_ref(),
+                -1.0,
+            );
         }
-    };
-    project(&mut block);
-    project(&mut block);
-    let mut q = block.qr().q();
-    project(&mut q);
-    q.qr().q()
+    } else {
+        project_out(basis, MatMut::from_column_major_slice_mut(src, n, c), coef);
+    }
+    let mut r_acc = DMatrix::zeros(0, 0);
+    thin_qr(
+        MatMut::from_column_major_slice_mut(src, n, c),
+        MatMut::from_column_major_slice_mut(dst, n, c),
+        Some(&mut r_acc),
+    );
+    std::mem::swap(&mut src, &mut dst);
+    let mut rp = DMatrix::zeros(0, 0);
+    for _pass in 0..3 {
+        project_out(basis, MatMut::from_column_major_slice_mut(src, n, c), coef);
+        thin_qr(
+            MatMut::from_column_major_slice_mut(src, n, c),
+            MatMut::from_column_major_slice_mut(dst, n, c),
+            Some(&mut rp),
+        );
+        std::mem::swap(&mut src, &mut dst);
+        r_acc = &rp * &r_acc;
+        if (0..c).all(|i| rp[(i, i)].abs() >= 0.5) {
+            break;
+        }
+    }
+    rest[..n * nb].copy_from_slice(&src[..n * nb]);
+    if let Some(r) = r {
+        *r = r_acc;
+    }
 }
 
 impl ShiftInvert<'_> {
-    /// `A X` for a block of columns.
-    fn apply_block(&self, x: &DMatrix<f64>) -> Result<DMatrix<f64>> {
+    /// `X ← A X` for the `ncols` columns of the column-major block `x`.
+    fn apply_in_place(&self, x: &mut [f64], ncols: usize) -> Result<()> {
         let n = self.sqrt_m.len();
-        let mut buf = DMatrix::from_fn(n, x.ncols(), |i, j| x[(i, j)] * self.sqrt_m[i]);
-        let nc = buf.ncols();
-        self.chol.solve_in_place(buf.as_mut_slice(), nc)?;
-        for j in 0..nc {
-            for i in 0..n {
-                buf[(i, j)] *= self.scale * self.sqrt_m[i];
+        for col in x[..n * ncols].chunks_exact_mut(n) {
+            for (xi, s) in col.iter_mut().zip(&self.sqrt_m) {
+                *xi *= s;
             }
         }
-        Ok(buf)
+        self.chol.solve_in_place(&mut x[..n * ncols], ncols)?;
+        for col in x[..n * ncols].chunks_exact_mut(n) {
+            for (xi, s) in col.iter_mut().zip(&self.sqrt_m) {
+                *xi *= self.scale * s;
+            }
+        }
+        Ok(())
     }
 }
+
+// ---------------------------------------------------------------------------
+// Dense kernels on column-major buffers: faer's blocked (BLAS-3) products,
+// QR and symmetric eigensolver, always sequential (`Par::Seq`) so that the
+// results do not depend on the thread count, writing into caller-owned
+// buffers so that the large `n × d` blocks are allocated once per solve.
+
+/// The `n × c` column-major matrix stored in `buf[start·n .. (start + c)·n]`.
+fn fcols(buf: &[f64], n: usize, start: usize, c: usize) -> MatRef<'_, f64> {
+    MatRef::from_column_major_slice(&buf[start * n..(start + c) * n], n, c)
+}
+
+/// Mutable version of [`fcols`].
+fn fcols_mut(buf: &mut [f64], n: usize, start: usize, c: usize) -> MatMut<'_, f64> {
+    MatMut::from_column_major_slice_mut(&mut buf[start * n..(start + c) * n], n, c)
+}
+
+/// `dst = a · b` (`beta = Replace`) or `dst += a · b` (`Add`), times `alpha`.
+fn gemm(dst: MatMut<'_, f64>, beta: Accum, a: MatRef<'_, f64>, b: MatRef<'_, f64>, alpha: f64) {
+    faer::linalg::matmul::matmul(dst, beta, a, b, alpha, Par::Seq);
+}
+
+/// A faer view of a whole nalgebra matrix.
+fn fview(m: &DMatrix<f64>) -> MatRef<'_, f64> {
+    MatRef::from_column_major_slice(m.as_slice(), m.nrows(), m.ncols())
+}
+
+/// A mutable faer view of a whole nalgebra matrix.
+fn fview_mut(m: &mut DMatrix<f64>) -> MatMut<'_, f64> {
+    let (r, c) = m.shape();
+    MatMut::from_column_major_slice_mut(m.as_mut_slice(), r, c)
+}
+
+/// Householder QR of the `n × c` matrix `a` (`n ≥ c`, overwritten by the
+/// factorisation): writes the thin `Q` into `q` and, if asked, `R` (`c × c`,
+/// upper triangular) into `r`.
+fn thin_qr(mut a: MatMut<'_, f64>, mut q: MatMut<'_, f64>, r: Option<&mut DMatrix<f64>>) {
+    use faer::linalg::{householder, qr::no_pivoting::factor};
+    let (n, c) = (a.nrows(), a.ncols());
+    if c == 0 {
+        return;
+    }
+    let bs = factor::recommended_block_size::<f64>(n, c);
+    let mut coeff = Mat::<f64>::zeros(bs, c);
+    let req = StackReq::any_of(&[
+        factor::qr_in_place_scratch::<f64>(n, c, bs, Par::Seq, Default::default()),
+        householder::apply_block_householder_sequence_on_the_left_in_place_scratch::<f64>(n, bs, c),
+    ]);
+    let mut mem = MemBuffer::new(req);
+    factor::qr_in_place(
+        a.rb_mut(),
+        coeff.as_mut(),
+        Par::Seq,
+        MemStack::new(&mut mem),
+        Default::default(),
+    );
+    if let Some(r) = r {
+        *r = DMatrix::from_fn(c, c, |i, j| if i <= j { a[(i, j)] } else { 0.0 });
+    }
+    q.fill(0.0);
+    for j in 0..c {
+        q[(j, j)] = 1.0;
+    }
+    householder::apply_block_householder_sequence_on_the_left_in_place_with_conj(
+        a.rb(),
+        coeff.as_ref(),
+        Conj::No,
+        q.rb_mut(),
+        Par::Seq,
+        MemStack::new(&mut mem),
+    );
+}
+
+/// Eigen-decomposition of the symmetric `d × d` matrix `h` (lower triangle
+/// read): (eigenvalues, eigenvectors), the eigenvalues ascending.
+fn sym_eigen(h: MatRef<'_, f64>) -> Result<(Vec<f64>, DMatrix<f64>)> {
+    use faer::linalg::evd;
+    let d = h.nrows();
+    let mut s = Mat::<f64>::zeros(d, 1);
+    let mut u = DMatrix::<f64>::zeros(d, d);
+    let mut mem = MemBuffer::new(evd::self_adjoint_evd_scratch::<f64>(
+        d,
+        evd::ComputeEigenvectors::Yes,
+        Par::Seq,
+        Default::default(),
+    ));
+    evd::self_adjoint_evd(
+        h,
+        s.as_mut().col_mut(0).as_diagonal_mut(),
+        Some(fview_mut(&mut u)),
+        Par::Seq,
+        MemStack::new(&mut mem),
+        Default::default(),
+    )
+    .map_err(|e| Error::numerical(format!("dense symmetric eigensolver failed: {e:?}")))?;
+    Ok(((0..d).map(|i| s[(i, 0)]).collect(), u))
+}
+
+/// `x ← (I − V Vᵀ) x` for the orthonormal columns `V` (`coef`: `d × c`
+/// scratch).
+fn project_out(v: MatRef<'_, f64>, mut x: MatMut<'_, f64>, coef: &mut Mat<f64>) {
+    if v.ncols() == 0 {
+        return;
+    }
+    coef.resize_with(v.ncols(), x.ncols(), |_, _| 0.0);
+    gemm(coef.as_mut(), Accum::Replace, v.transpose(), x.rb(), 1.0);
+    gemm(x.rb_mut(), Accum::Add, v, coef.as_ref(), -1.0);
+}
+
+/// Relative size below which `⟨φ, w⟩_M` is not trusted to fix the sign of
+/// `φ` (see [`canonicalize_signs`]).
+const SIGN_TAU: f64 = 1e-6;
+
+/// Number of weight vectors tried by [`canonicalize_signs`] before the
+/// largest-entry fallback.
+const SIGN_WEIGHTS: u64 = 3;
+
+/// Entry `i` of the `r`-th fixed sign weight vector: `1 + u − ½` with `u` in
+/// `[0, 1)` from a SplitMix64 hash of `(r, i)`. Depends only on the index.
+fn sign_weight(r: u64, i: usize) -> f64 {
+    let mut z = (i as u64)
+        .wrapping_add(r.wrapping_mul(0xD1B5_4A32_D192_ED03))
+        .wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    0.5 + (z >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
+/// Gives every column `φ` of `vectors` its canonical sign (the rule that
+/// [`generalized_eigen`] applies to its results), in place; `m` is the
+/// diagonal mass.
+///
+/// **Rule.** `φ` is made to satisfy `⟨φ, w_r⟩_M = Σ m_i w_{r,i} φ_i > 0` for
+/// the first of a few fixed weight vectors `w_0, w_1, w_2` whose product is
+/// not negligible, `|⟨φ, w_r⟩_M| > τ ‖φ‖_M ‖w_r‖_M` with `τ = 1e-6`; if all
+/// three are negligible (or for a vector that is zero there), its entry of
+/// largest magnitude (lowest index on ties) is made positive. The weights
+/// `w_{r,i} = 1 + (u_{r,i} − ½)`, `u` a fixed hash of `(r, i)` in `[0, 1)`,
+/// depend only on the vertex index, so the sign depends only on the vector
+/// (and the masses), not on the solver's random start, block size or
+/// rounding.
+///
+/// **Why this rule.** Any sign rule is discontinuous somewhere; the question
+/// is how likely a computed eigenvector lands there. "Largest entry
+/// positive" fails on every symmetric mesh, where an odd eigenfunction has
+/// two extreme entries of equal magnitude and opposite sign, so rounding
+/// decides. Against a generic weight vector, the product of a unit vector is
+/// of relative size `~ 1/√n` (`w` is not aligned with the mesh's
+/// symmetries: the hash of the index knows nothing of the geometry), far
+/// above the relative accuracy of the vectors (`≲ 1e-7`); the chance that
+/// it falls below `τ` is about `τ √n`, and then a second, independent
+/// weight decides. The constant part of `w` makes the constant eigenvector
+/// of a closed (or Neumann) mesh positive; the other eigenvectors are
+/// M-orthogonal to constants, so for them only the hashed part matters.
+///
+/// **Repeated eigenvalues.** For an eigenvalue of multiplicity `> 1` the
+/// vectors inside its eigenspace are arbitrary (any M-orthonormal basis is
+/// valid and the solver returns one that depends on its start); only the
+/// sign of each returned vector is canonicalised, not the rotation.
+///
+/// Idempotent, and `φ` and `−φ` give bit-identical results (`⟨−φ, w⟩_M` is
+/// computed as exactly `−⟨φ, w⟩_M`).
+pub fn canonicalize_signs(vectors: &mut DMatrix<f64>, m: &[f64]) {
+    let n = vectors.nrows();
+    assert_eq!(m.len(), n, "one mass per row");
+    // (M w_r, ‖w_r‖²_M), computed when first needed.
+    let mut weights: Vec<(Vec<f64>, f64)> = Vec::new();
+    for mut col in vectors.column_iter_mut() {
+        let norm2: f64 = col.iter().zip(m).map(|(x, w)| w * x * x).sum();
+        let mut sign = 0.0;
+        for r in 0..SIGN_WEIGHTS {
+            if weights.len() <= r as usize {
+                let mw: Vec<f64> = (0..n).map(|i| m[i] * sign_weight(r, i)).collect();
+                let w2 = (0..n).map(|i| mw[i] * sign_weight(r, i)).sum();
+                weights.push((mw, w2));
+            }
+            let (mw, w2) = &weights[r as usize];
+            let p: f64 = col.iter().zip(mw).map(|(x, w)| w * x).sum();
+            if p.abs() > SIGN_TAU * (norm2 * w2).sqrt() {
+                sign = p.signum();
+                break;
+            }
+        }
+        if sign == 0.0 {
+            let mut best = (0.0f64, 0usize);
+            for (i, x) in col.iter().enumerate() {
+                if x.abs() > best.0 {
+                    best = (x.abs(), i);
+                }
+            }
+            sign = if col[best.1] < 0.0 { -1.0 } else { 1.0 };
+        }
+        if sign < 0.0 {
+            col.neg_mut();
+        }
+    }
+}
+
+/// `out = L X` for the `c` columns of the column-major `x` (`L` sparse CSC,
+/// `n × n`). Works on row-major copies of up to [`SPMM_CHUNK`] columns, so
+/// that each stored entry of `L` updates a contiguous short row (the sums
+/// are formed in the same order as column by column).
+fn sparse_times(l: &SparseMatrix, x: &[f64], out: &mut [f64], c: usize) {
+    let n = l.nrows();
+    let (offsets, rows, vals) = (l.col_offsets(), l.row_indices(), l.values());
+    let width = c.min(SPMM_CHUNK);
+    let mut xt = vec![0.0f64; n * width];
+    let mut ot = vec![0.0f64; n * width];
+    for j0 in (0..c).step_by(SPMM_CHUNK) {
+        let w = (c - j0).min(SPMM_CHUNK);
+        for jj in 0..w {
+            let col = &x[(j0 + jj) * n..(j0 + jj + 1) * n];
+            for (i, &v) in col.iter().enumerate() {
+                xt[i * w + jj] = v;
+            }
+        }
+        ot[..n * w].fill(0.0);
+        for col in 0..n {
+            let xc = &xt[col * w..(col + 1) * w];
+            for e in offsets[col]..offsets[col + 1] {
+                let (r, v) = (rows[e], vals[e]);
+                for (o, &xv) in ot[r * w..(r + 1) * w].iter_mut().zip(xc) {
+                    *o += v * xv;
+                }
+            }
+        }
+        for jj in 0..w {
+            let col = &mut out[(j0 + jj) * n..(j0 + jj + 1) * n];
+            for (i, o) in col.iter_mut().enumerate() {
+                *o = ot[i * w + jj];
+            }
+        }
+    }
+}
+
+/// Columns per pass of [`sparse_times`].
+const SPMM_CHUNK: usize = 16;

@@ -15,7 +15,9 @@ pub mod kmedoids;
 pub mod progress;
 pub mod qp;
 pub use cholesky::{Inertia, SparseCholesky, SparseLdlt, SymbolicCholesky};
-pub use eigen::{generalized_eigen, mass_diagonal, EigenOptions, Eigenpairs};
+pub use eigen::{
+    canonicalize_signs, generalized_eigen, mass_diagonal, EigenOptions, Eigenpairs, DENSE_MAX,
+};
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
