@@ -28,10 +28,27 @@ pub(crate) fn meshes_hash<'m>(meshes: impl IntoIterator<Item = &'m Mesh>) -> u64
 
 /// A process-wide memo of deterministic results keyed by a hash of the
 /// source meshes and a description of everything else they depend on.
+///
+/// Rows that need the same result at the same time (the cases of one
+/// experiment, run in parallel) compute it **once**: the first caller
+/// computes, later callers wait for it, and while they wait they run other
+/// work of the rayon pool they are on (`rayon::yield_now`), which includes
+/// the parallel parts of the computation they wait for (a key point
+/// selection evaluates its candidates in parallel). Before, each caller
+/// computed the result itself: on two threads, two cases of BDT Fig. 7
+/// selected the same key points twice side by side and the experiment took
+/// as long as on one thread. If the computation fails, every waiter
+/// computes for itself (and gets the error itself).
 pub(crate) struct Memo<T>(std::sync::OnceLock<std::sync::Mutex<MemoMap<T>>>);
 
+/// One entry of a [`Memo`]: filled once by the caller that computes it.
+struct Slot<T> {
+    value: std::sync::OnceLock<Arc<T>>,
+    failed: std::sync::atomic::AtomicBool,
+}
+
 /// The map behind a [`Memo`].
-type MemoMap<T> = std::collections::HashMap<(u64, String), Arc<T>>;
+type MemoMap<T> = std::collections::HashMap<(u64, String), Arc<Slot<T>>>;
 
 impl<T> Memo<T> {
     pub(crate) const fn new() -> Self {
@@ -43,14 +60,101 @@ impl<T> Memo<T> {
         key: (u64, String),
         f: impl FnOnce() -> Result<T>,
     ) -> Result<Arc<T>> {
+        Ok(self.get_or_timed(key, f)?.0)
+    }
+
+    /// [`Memo::get_or`] and the seconds this call spent waiting for another
+    /// caller's computation (running other work of the pool meanwhile), so
+    /// that callers can report their own time without it.
+    pub(crate) fn get_or_timed(
+        &self,
+        key: (u64, String),
+        f: impl FnOnce() -> Result<T>,
+    ) -> Result<(Arc<T>, f64)> {
+        use std::sync::atomic::Ordering;
         let memo = self.0.get_or_init(Default::default);
-        if let Some(s) = memo.lock().ok().and_then(|m| m.get(&key).cloned()) {
-            return Ok(s);
+        let (slot, mine) = {
+            let Ok(mut m) = memo.lock() else {
+                return Ok((Arc::new(f()?), 0.0));
+            };
+            match m.get(&key) {
+                Some(s) => (s.clone(), false),
+                None => {
+                    let s = Arc::new(Slot {
+                        value: std::sync::OnceLock::new(),
+                        failed: std::sync::atomic::AtomicBool::new(false),
+                    });
+                    m.insert(key.clone(), s.clone());
+                    (s, true)
+                }
+            }
+        };
+        if mine {
+            return match f() {
+                Ok(v) => Ok((slot.value.get_or_init(|| Arc::new(v)).clone(), 0.0)),
+                Err(e) => {
+                    // Forget the entry (a later call tries again) and let
+                    // the waiters compute for themselves.
+                    if let Ok(mut m) = memo.lock() {
+                        m.remove(&key);
+                    }
+                    slot.failed.store(true, Ordering::Release);
+                    Err(e)
+                }
+            };
         }
-        let v = Arc::new(f()?);
-        if let Ok(mut m) = memo.lock() {
-            m.insert(key, v.clone());
+        let start = std::time::Instant::now();
+        loop {
+            if let Some(v) = slot.value.get() {
+                return Ok((v.clone(), start.elapsed().as_secs_f64()));
+            }
+            if slot.failed.load(Ordering::Acquire) {
+                let waited = start.elapsed().as_secs_f64();
+                return Ok((Arc::new(f()?), waited));
+            }
+            match rayon::yield_now() {
+                Some(rayon::Yield::Executed) => {}
+                _ => std::thread::sleep(std::time::Duration::from_millis(1)),
+            }
         }
-        Ok(v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rayon::prelude::*;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    /// Concurrent callers of one key compute it once and get the same value;
+    /// a failed computation is not memoised (the next caller computes).
+    #[test]
+    fn concurrent_callers_compute_once() {
+        static MEMO: Memo<usize> = Memo::new();
+        let calls = AtomicUsize::new(0);
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let got: Vec<usize> = pool.install(|| {
+            (0..6)
+                .into_par_iter()
+                .map(|_| {
+                    *MEMO
+                        .get_or((1, "k".into()), || {
+                            calls.fetch_add(1, Ordering::SeqCst);
+                            std::thread::sleep(std::time::Duration::from_millis(100));
+                            Ok(42)
+                        })
+                        .unwrap()
+                })
+                .collect()
+        });
+        assert_eq!(got, vec![42; 6]);
+        assert_eq!(calls.load(Ordering::SeqCst), 1);
+
+        let failed = MEMO.get_or((2, "k".into()), || Err(crate::Error::invalid("no")));
+        assert!(failed.is_err());
+        assert_eq!(*MEMO.get_or((2, "k".into()), || Ok(7)).unwrap(), 7);
     }
 }

@@ -74,7 +74,9 @@ pub struct PickedKeypoints {
     pub keypoints: Vec<usize>,
     /// The selection (automatic only) and the number of poses it used.
     pub selection: Option<(Arc<KeypointSelection>, usize)>,
-    /// Wall-clock seconds of the pick (near zero for a memoised selection).
+    /// Wall-clock seconds of the pick (near zero for a memoised selection;
+    /// time spent waiting for a selection another case was computing is
+    /// not counted).
     pub seconds: f64,
 }
 
@@ -89,10 +91,12 @@ impl KeypointSource {
         opts: &KeypointOptions,
     ) -> Result<PickedKeypoints> {
         let t = Instant::now();
+        let mut waited = 0.0;
         let (keypoints, selection) = match self {
             KeypointSource::Automatic { selection_poses } => {
                 let k = selection_poses.unwrap_or(a_def.len()).min(a_def.len());
-                let sel = memo_select(a, &a_def[..k], opts)?;
+                let (sel, w) = memo_select(a, &a_def[..k], opts)?;
+                waited = w;
                 (sel.keypoints.clone(), Some((sel, k)))
             }
             KeypointSource::Random { count, seed, pool } => (
@@ -121,7 +125,7 @@ impl KeypointSource {
         Ok(PickedKeypoints {
             keypoints,
             selection,
-            seconds: t.elapsed().as_secs_f64(),
+            seconds: (t.elapsed().as_secs_f64() - waited).max(0.0),
         })
     }
 }
@@ -130,13 +134,18 @@ impl KeypointSource {
 /// meshes and the options: configs that repeat one selection in many rows
 /// (e.g. `auto-noise.toml`: one per noise level and seed) select once. The
 /// selection is deterministic, so a memoised result equals a recomputed one.
-fn memo_select(a: &Mesh, a_def: &[Mesh], opts: &KeypointOptions) -> Result<Arc<KeypointSelection>> {
+/// Also returns the seconds spent waiting for another caller's selection.
+fn memo_select(
+    a: &Mesh,
+    a_def: &[Mesh],
+    opts: &KeypointOptions,
+) -> Result<(Arc<KeypointSelection>, f64)> {
     static MEMO: Memo<KeypointSelection> = Memo::new();
     let key = (
         meshes_hash(std::iter::once(a).chain(a_def)),
         format!("{opts:?}"),
     );
-    MEMO.get_or(key, || select_keypoints(a, a_def, opts))
+    MEMO.get_or_timed(key, || select_keypoints(a, a_def, opts))
 }
 
 /// [`fit_keypoints`], memoised like [`memo_select`]: rows that fit the same
@@ -149,12 +158,22 @@ pub fn memo_fit(
     keypoints: &[usize],
     opts: &KeypointOptions,
 ) -> Result<Arc<KeypointFit>> {
+    Ok(memo_fit_timed(a, a_def, keypoints, opts)?.0)
+}
+
+/// [`memo_fit`] and the seconds spent waiting for another caller's fit.
+pub fn memo_fit_timed(
+    a: &Mesh,
+    a_def: &[Mesh],
+    keypoints: &[usize],
+    opts: &KeypointOptions,
+) -> Result<(Arc<KeypointFit>, f64)> {
     static MEMO: Memo<KeypointFit> = Memo::new();
     let key = (
         meshes_hash(std::iter::once(a).chain(a_def)),
         format!("{keypoints:?} {opts:?}"),
     );
-    MEMO.get_or(key, || fit_keypoints(a, a_def, keypoints, opts))
+    MEMO.get_or_timed(key, || fit_keypoints(a, a_def, keypoints, opts))
 }
 
 /// `count` random key points: among the FPS candidates (`n_candidates`,

@@ -5,7 +5,7 @@
 
 use std::time::Instant;
 
-use super::keypoints::{memo_fit, KeypointSource, PickedKeypoints};
+use super::keypoints::{memo_fit_timed, KeypointSource, PickedKeypoints};
 use super::target::{TargetFound, TargetPoints};
 use crate::baselines::{
     correspond, CageOptions, CageTransfer, CorrespondenceOptions, DeformationTransfer,
@@ -169,8 +169,10 @@ impl TransferMethod {
             } => {
                 let picked = keypoints.pick(a, a_def, &options.keypoints)?;
                 let t = Instant::now();
-                let fit = (*memo_fit(a, a_def, &picked.keypoints, &options.keypoints)?).clone();
-                let seconds_fit = t.elapsed().as_secs_f64();
+                let (fit, waited) =
+                    memo_fit_timed(a, a_def, &picked.keypoints, &options.keypoints)?;
+                let fit = (*fit).clone();
+                let seconds_fit = (t.elapsed().as_secs_f64() - waited).max(0.0);
                 let found = target.find(a, b, &picked.keypoints)?;
                 // Raw and handle-relative frames: when the registration
                 // rotated A onto B, the transforms are re-expressed in B's
