@@ -65,6 +65,35 @@ impl UpperCsc {
     }
 }
 
+/// The sequential numeric LLᵀ of `view` (the triangle `side`) into
+/// `values`, with the error of a matrix that is not positive definite.
+fn numeric_llt(
+    symbolic: &fch::SymbolicCholesky<usize>,
+    values: &mut [f64],
+    view: SparseColMatRef<'_, usize, f64>,
+    side: Side,
+    buf: &mut MemBuffer,
+) -> Result<()> {
+    symbolic
+        .factorize_numeric_llt(
+            values,
+            view,
+            side,
+            Default::default(),
+            Par::Seq,
+            MemStack::new(buf),
+            Default::default(),
+        )
+        .map(|_| ())
+        .map_err(|e| match e {
+            LltError::NonPositivePivot { index } => Error::numerical(format!(
+                "matrix of an active-set step is not positive definite (pivot {index} of {}); \
+                 the quadratic form must be positive definite on the free variables",
+                symbolic.nrows()
+            )),
+        })
+}
+
 /// Sparse LLᵀ of a matrix given in its elimination order (no permutation).
 pub(crate) struct OrderedCholesky {
     symbolic: fch::SymbolicCholesky<usize>,
@@ -94,26 +123,11 @@ impl OrderedCholesky {
         )
         .map_err(|e| Error::numerical(format!("symbolic Cholesky failed: {e:?}")))?;
         let mut values = vec![0.0; symbolic.len_val()];
-        let par = Par::Seq;
-        let mut buf =
-            MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
+        let mut buf = MemBuffer::new(
+            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+        );
         let view = SparseColMatRef::new(sym_view, &m.values);
-        symbolic
-            .factorize_numeric_llt(
-                &mut values,
-                view,
-                Side::Upper,
-                Default::default(),
-                par,
-                MemStack::new(&mut buf),
-                Default::default(),
-            )
-            .map_err(|e| match e {
-                LltError::NonPositivePivot { index } => Error::numerical(format!(
-                    "matrix of an active-set step is not positive definite (pivot {index} of \
-                     {n}); the quadratic form must be positive definite on the free variables"
-                )),
-            })?;
+        numeric_llt(&symbolic, &mut values, view, Side::Upper, &mut buf)?;
         Ok(OrderedCholesky { symbolic, values })
     }
 
@@ -417,22 +431,7 @@ impl SubsetFactorizer {
                 .factorize_numeric_llt_scratch::<f64>(par, Default::default())
                 .or(symbolic.solve_in_place_scratch::<f64>(1, par)),
         );
-        symbolic
-            .factorize_numeric_llt(
-                &mut self.values,
-                view,
-                Side::Lower,
-                Default::default(),
-                par,
-                MemStack::new(&mut buf),
-                Default::default(),
-            )
-            .map_err(|e| match e {
-                LltError::NonPositivePivot { index } => Error::numerical(format!(
-                    "matrix of an active-set step is not positive definite (pivot {index} of \
-                     {m}); the quadratic form must be positive definite on the free variables"
-                )),
-            })?;
+        numeric_llt(symbolic, &mut self.values, view, Side::Lower, &mut buf)?;
         let mut y: Vec<f64> = self
             .vars
             .iter()
