@@ -65,6 +65,24 @@ impl UpperCsc {
     }
 }
 
+/// Supernodal symbolic analysis of an upper triangle already in its
+/// elimination order (faer's automatic choice picked the simplicial variant
+/// for the biharmonic form, measured twice as slow).
+fn supernodal_symbolic(
+    upper: SymbolicSparseColMatRef<'_, usize>,
+) -> Result<fch::SymbolicCholesky<usize>> {
+    fch::factorize_symbolic_cholesky(
+        upper,
+        Side::Upper,
+        fch::SymmetricOrdering::Identity,
+        fch::CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        },
+    )
+    .map_err(|e| Error::numerical(format!("symbolic Cholesky failed: {e:?}")))
+}
+
 /// The sequential numeric LLᵀ of `view` (the triangle `side`) into
 /// `values`, with the error of a matrix that is not positive definite.
 fn numeric_llt(
@@ -112,16 +130,7 @@ impl OrderedCholesky {
             )));
         }
         let sym_view = SymbolicSparseColMatRef::new_checked(n, n, &m.col_ptr, None, &m.row_idx);
-        let symbolic = fch::factorize_symbolic_cholesky(
-            sym_view,
-            Side::Upper,
-            fch::SymmetricOrdering::Identity,
-            fch::CholeskySymbolicParams {
-                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-                ..Default::default()
-            },
-        )
-        .map_err(|e| Error::numerical(format!("symbolic Cholesky failed: {e:?}")))?;
+        let symbolic = supernodal_symbolic(sym_view)?;
         let mut values = vec![0.0; symbolic.len_val()];
         let mut buf = MemBuffer::new(
             symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
@@ -359,16 +368,7 @@ impl SubsetFactorizer {
         }
         let sym_view =
             SymbolicSparseColMatRef::new_checked(m, m, &pattern.col_ptr, None, &pattern.row_idx);
-        let symbolic = fch::factorize_symbolic_cholesky(
-            sym_view,
-            Side::Upper,
-            fch::SymmetricOrdering::Identity,
-            fch::CholeskySymbolicParams {
-                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-                ..Default::default()
-            },
-        )
-        .map_err(|e| Error::numerical(format!("symbolic Cholesky failed: {e:?}")))?;
+        let symbolic = supernodal_symbolic(sym_view)?;
         self.values.resize(symbolic.len_val(), 0.0);
         self.symbolic = Some(symbolic);
         self.analyses += 1;
