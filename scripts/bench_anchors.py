@@ -286,11 +286,9 @@ class Bench:
                     self.skip(f"bbw {label}", f"{mesh} not found")
                     continue
                 if label == "108k":
-                    self.skip("bbw 108k", "not run: per-handle needs 429 active-set iterations at 107.5k vertices "
-                              "(README, 'deformlab weights --max-iter 1000'), more than the default 200 the Python "
-                              "bbw uses (it has no max-iter option), and coupled took 2229 s CPU there; igl.bbw "
-                              "was not tried at this size (its default max_iter is 100). The exponent is fitted on "
-                              "the smaller sizes")
+                    self.skip("bbw 108k", "not run (time): per-handle needs 429 active-set iterations at 107.5k "
+                              "vertices and coupled took 2229 s CPU there (README); igl.bbw was not tried at this "
+                              "size (its default max_iter is 100). The exponent is fitted on the smaller sizes")
                     continue
                 h = self.measure({"task": "fps", "mesh": str(mesh), "k": HANDLES})["handles"]
                 sides = ["coupled", "per-handle"] + (["igl"] if have_igl else [])

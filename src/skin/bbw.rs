@@ -147,7 +147,7 @@ pub struct BbwOptions {
     /// unless [`BbwOptions::accept_unconverged`] is set. The supports grow by
     /// a few rings per iteration (`Q` couples two rings), so the count grows
     /// with resolution: a per-handle set needed 38 iterations at 6.9k
-    /// vertices (FAUST), 210 at 27k (synthetic, resolution 3; the earlier
+    /// vertices (FAUST), 207 at 27k (synthetic, resolution 3; the earlier
     /// default 200 failed there) and 429 at 108k. The default 1000 is a
     /// guard against cycling, not a budget: a converging solve stops earlier.
     pub max_iter: usize,
