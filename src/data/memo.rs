@@ -41,6 +41,23 @@ pub(crate) fn meshes_hash<'m>(meshes: impl IntoIterator<Item = &'m Mesh>) -> u64
 /// computes for itself (and gets the error itself).
 pub(crate) struct Memo<T>(std::sync::OnceLock<std::sync::Mutex<MemoMap<T>>>);
 
+std::thread_local! {
+    /// Seconds this thread spent in [`Memo`] waits since the last
+    /// [`take_waited`] (see there).
+    static WAITED: std::cell::Cell<f64> = const { std::cell::Cell::new(0.0) };
+}
+
+/// Starts counting this thread's memo waits afresh and returns the count
+/// so far; call it again with the returned value when the measured piece
+/// of work ends, and it returns the seconds waited in between. Used by the
+/// experiment runner to report a row's `seconds_total` without the time it
+/// spent waiting for another row's shared result (and the other pool work
+/// it ran meanwhile, which may be whole other rows: they nest, so each
+/// saves and restores the count).
+pub(crate) fn take_waited(restore: f64) -> f64 {
+    WAITED.with(|w| w.replace(restore))
+}
+
 /// One entry of a [`Memo`]: filled once by the caller that computes it.
 struct Slot<T> {
     value: std::sync::OnceLock<Arc<T>>,
@@ -104,13 +121,18 @@ impl<T> Memo<T> {
             };
         }
         let start = std::time::Instant::now();
+        let waited = || {
+            let w = start.elapsed().as_secs_f64();
+            WAITED.with(|c| c.set(c.get() + w));
+            w
+        };
         loop {
             if let Some(v) = slot.value.get() {
-                return Ok((v.clone(), start.elapsed().as_secs_f64()));
+                return Ok((v.clone(), waited()));
             }
             if slot.failed.load(Ordering::Acquire) {
-                let waited = start.elapsed().as_secs_f64();
-                return Ok((Arc::new(f()?), waited));
+                let w = waited();
+                return Ok((Arc::new(f()?), w));
             }
             match rayon::yield_now() {
                 Some(rayon::Yield::Executed) => {}
@@ -136,22 +158,28 @@ mod tests {
             .num_threads(2)
             .build()
             .unwrap();
-        let got: Vec<usize> = pool.install(|| {
+        let got: Vec<(usize, f64)> = pool.install(|| {
             (0..6)
                 .into_par_iter()
                 .map(|_| {
-                    *MEMO
+                    let saved = take_waited(0.0);
+                    let v = *MEMO
                         .get_or((1, "k".into()), || {
                             calls.fetch_add(1, Ordering::SeqCst);
-                            std::thread::sleep(std::time::Duration::from_millis(100));
+                            std::thread::sleep(std::time::Duration::from_millis(300));
                             Ok(42)
                         })
-                        .unwrap()
+                        .unwrap();
+                    (v, take_waited(saved))
                 })
                 .collect()
         });
-        assert_eq!(got, vec![42; 6]);
+        assert!(got.iter().all(|&(v, _)| v == 42));
         assert_eq!(calls.load(Ordering::SeqCst), 1);
+        // The computing caller did not wait; the one on the other thread
+        // waited for most of the 300 ms and said so.
+        assert!(got.iter().any(|&(_, w)| w == 0.0));
+        assert!(got.iter().any(|&(_, w)| w > 0.05), "{got:?}");
 
         let failed = MEMO.get_or((2, "k".into()), || Err(crate::Error::invalid("no")));
         assert!(failed.is_err());
