@@ -107,6 +107,19 @@ impl<T> Memo<T> {
             }
         };
         if mine {
+            // Waiters must not wait forever if `f` panics: the slot counts
+            // as failed unless a result was stored.
+            struct Unwind<'s, T>(&'s Slot<T>);
+            impl<T> Drop for Unwind<'_, T> {
+                fn drop(&mut self) {
+                    if self.0.value.get().is_none() {
+                        self.0
+                            .failed
+                            .store(true, std::sync::atomic::Ordering::Release);
+                    }
+                }
+            }
+            let _guard = Unwind(&slot);
             return match f() {
                 Ok(v) => Ok((slot.value.get_or_init(|| Arc::new(v)).clone(), 0.0)),
                 Err(e) => {

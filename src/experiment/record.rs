@@ -159,7 +159,31 @@ pub fn run_method(
 ) -> Result<()> {
     let t_total = Instant::now();
     let outer_waits = crate::data::memo::take_waited(0.0);
-    let result = run_method_inner(col, case, m, metrics, render, out);
+    let result = (|| -> Result<()> {
+        match &m.method {
+            Method::Fbt { spec, seed } => {
+                let render = render.map(|r| (r, m.name.as_str()));
+                super::fbt::run(col, case, spec, *seed, metrics, render, out)?;
+            }
+            Method::Transfer(t) => {
+                let cm = CaseMeshes::load(col, case)?;
+                cm.check_sizes(col, case)?;
+                out.set("n_vertices", cm.a.n_vertices().to_string());
+                if !matches!(t, TransferMethod::Identity | TransferMethod::SumnerOracle) {
+                    connected_source(col, case, &cm.a)?;
+                }
+                transfer(&cm, case, t, &m.name, metrics, render, out)?;
+            }
+            Method::Clustering(c) => {
+                let cm = CaseMeshes::load(col, case)?;
+                cm.check_sizes(col, case)?;
+                out.set("n_vertices", cm.a.n_vertices().to_string());
+                connected_source(col, case, &cm.a)?;
+                clustering(col, &cm, c, &m.name, render, out)?;
+            }
+        }
+        Ok(())
+    })();
     let waited = crate::data::memo::take_waited(outer_waits);
     result?;
     // Without the time spent waiting for another row's shared result (a key
@@ -168,39 +192,6 @@ pub fn run_method(
         "seconds_total",
         secs((t_total.elapsed().as_secs_f64() - waited).max(0.0)),
     );
-    Ok(())
-}
-
-fn run_method_inner(
-    col: &Collection,
-    case: &Case,
-    m: &NamedMethod,
-    metrics: &MetricsSpec,
-    render: Option<&RenderOut>,
-    out: &mut CaseResult,
-) -> Result<()> {
-    match &m.method {
-        Method::Fbt { spec, seed } => {
-            let render = render.map(|r| (r, m.name.as_str()));
-            super::fbt::run(col, case, spec, *seed, metrics, render, out)?;
-        }
-        Method::Transfer(t) => {
-            let cm = CaseMeshes::load(col, case)?;
-            cm.check_sizes(col, case)?;
-            out.set("n_vertices", cm.a.n_vertices().to_string());
-            if !matches!(t, TransferMethod::Identity | TransferMethod::SumnerOracle) {
-                connected_source(col, case, &cm.a)?;
-            }
-            transfer(&cm, case, t, &m.name, metrics, render, out)?;
-        }
-        Method::Clustering(c) => {
-            let cm = CaseMeshes::load(col, case)?;
-            cm.check_sizes(col, case)?;
-            out.set("n_vertices", cm.a.n_vertices().to_string());
-            connected_source(col, case, &cm.a)?;
-            clustering(col, &cm, c, &m.name, render, out)?;
-        }
-    }
     Ok(())
 }
 

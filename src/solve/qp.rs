@@ -269,7 +269,7 @@ impl BoxQp {
         let max_iter = max_iter.max(1);
         let mut converged = false;
         let mut iterations = 0;
-        let mut factorizer = SubsetFactorizer::new();
+        let mut factorizer = SubsetFactorizer::default();
         for it in 1..=max_iter {
             iterations = it;
             // x_A at the bounds; rhs = −b − A_FA x_A on the free block.
@@ -1026,7 +1026,7 @@ mod tests {
         let rhs: Vec<f64> = (0..n)
             .map(|i| ((i * 37 % 101) as f64 - 50.0) / 7.0)
             .collect();
-        let mut fac = SubsetFactorizer::new();
+        let mut fac = SubsetFactorizer::default();
         let mut calls = 0;
         // Quarter discs around a corner: a disc, then three subsets of it
         // (every 17th / 19th / 23rd node removed: inside the analysed
