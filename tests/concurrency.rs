@@ -17,7 +17,11 @@ use deformlab::experiment::{FolderLock, Shard};
 
 const NAME: &str = "concurrent";
 
-/// 4 cases (subject 0 → 1, 2; one pose each) × 2 methods.
+/// 4 cases (subject 0 → 1, 2; one pose each) × 2 methods. Sized so that one
+/// run lasts long enough (about 1.7 s) for the other, started just after it,
+/// to find the folder held: with 10 candidates and 3 key points a run took
+/// 0.5 s and on an idle machine the second often found everything already
+/// stored (2 failures in 6 tries).
 const CONFIG: &str = r#"
 name = "concurrent"
 seed = 3
@@ -33,10 +37,10 @@ per_pose = true
 
 [defaults]
 mode = "fast"
-n_candidates = 10
+n_candidates = 40
 error_norm = "rms"
 epsilon = 0.0
-max_keypoints = 3
+max_keypoints = 6
 max_swap_passes = 0
 
 [[methods]]
