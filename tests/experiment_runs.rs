@@ -238,6 +238,48 @@ fn one_and_two_threads_give_identical_results() {
 }
 
 #[test]
+fn configs_run_side_by_side_give_the_results_of_separate_runs() {
+    // The configs of one run share the pool and run side by side: each
+    // folder holds what a run of its config alone gives, and the summary
+    // lines come in config order.
+    let (_, ref_dir) = reference();
+    let t = tempfile::tempdir().unwrap();
+    let other = write(
+        t.path(),
+        "other.toml",
+        CONFIG
+            .replace("name = \"tiny\"", "name = \"other\"")
+            .replace("seed = 3", "seed = 4"),
+    );
+    let cfg = write_config(t.path(), CONFIG);
+    let out = t.path().join("out");
+    let o = ok(&[
+        "run",
+        other.to_str().unwrap(),
+        cfg.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--threads",
+        "2",
+        "--no-plots",
+    ]);
+    let dir = out.join("tiny");
+    assert_eq!(cases_without_timing(&dir), cases_without_timing(ref_dir));
+    assert_eq!(count_results(&out.join("other")), N_RESULTS);
+    assert_ne!(
+        cases_without_timing(&out.join("other")),
+        cases_without_timing(ref_dir),
+        "the seed should change the second config's results"
+    );
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let (a, b) = (stdout.find("other:"), stdout.find("tiny:"));
+    assert!(
+        a.is_some() && b.is_some() && a < b,
+        "summaries not in config order:\n{stdout}"
+    );
+}
+
+#[test]
 fn two_shards_merged_equal_the_unsharded_run() {
     let (_, ref_dir) = reference();
     let t = tempfile::tempdir().unwrap();

@@ -3,9 +3,15 @@
 //!
 //! For every config: open the dataset, generate the cases, bind the folder
 //! `ROOT/<name>` to the config hash ([`Store::bind`]), save the render
-//! meshes, then run every unfinished case × method of this shard on a local
-//! rayon pool of K threads (nested parallelism of key point selection runs
-//! on the same pool). Each finished case × method is stored at once
+//! meshes, then run every unfinished case × method of this shard. All
+//! configs of a run share one rayon pool of K threads and run side by side
+//! on it (the rows of every config, and the nested parallelism of key point
+//! selection, are tasks of the same pool): a thread that finds no more rows
+//! of one experiment, or waits on a sequential step of one, works on
+//! another's, so no thread idles while any row is left (measured on the
+//! default suite, 2 threads: see `results/bench/README.md`). An
+//! experiment's wall time therefore includes time it shared the threads
+//! with the others. Each finished case × method is stored at once
 //! (atomically); tables are rebuilt from the store at the end, in case
 //! order, so results do not depend on K or on interruptions. A failing
 //! method on a case is a result too (status `failed: …`).
@@ -89,7 +95,9 @@ fn unix_now() -> u64 {
         .unwrap_or(0)
 }
 
-/// Runs every config in turn (see the module documentation).
+/// Runs every config, side by side on one pool (see the module
+/// documentation). Summaries come in config order; on errors, the first
+/// (in config order) is returned after every config has run or stopped.
 pub fn run_configs(configs: &[PathBuf], opts: &RunOptions) -> Result<Vec<RunSummary>> {
     let mut loaded = configs
         .iter()
@@ -116,11 +124,70 @@ pub fn run_configs(configs: &[PathBuf], opts: &RunOptions) -> Result<Vec<RunSumm
             ));
         }
     }
-    let mut out = Vec::new();
-    for l in &loaded {
-        out.push(run_one(l, opts)?);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(crate::solve::cap_threads(opts.threads))
+        .build()
+        .map_err(|e| Error::invalid(format!("thread pool: {e}")))?;
+    let bars = Bars::new(opts.progress);
+    let done: Vec<Result<RunSummary>> = pool.install(|| {
+        loaded
+            .par_iter()
+            .with_max_len(1)
+            .map(|l| run_one(l, opts, &bars))
+            .collect()
+    });
+    done.into_iter().collect()
+}
+
+/// The progress display of a run: one bar per running experiment on a
+/// terminal (long steps inside a row write into the bar of the experiment
+/// whose row the thread is running), log lines otherwise, or nothing.
+struct Bars {
+    multi: Option<indicatif::MultiProgress>,
+    enabled: bool,
+    _sink: Option<crate::solve::progress::SinkGuard>,
+}
+
+thread_local! {
+    /// The bar of the experiment whose row this thread is running.
+    static ROW_BAR: std::cell::RefCell<Option<indicatif::ProgressBar>> =
+        const { std::cell::RefCell::new(None) };
+}
+
+impl Bars {
+    /// Prints a line on stderr above the bars (plainly without bars).
+    fn say(&self, line: &str) {
+        match &self.multi {
+            Some(m) => m.suspend(|| eprintln!("{line}")),
+            None => eprintln!("{line}"),
+        }
     }
-    Ok(out)
+
+    fn new(enabled: bool) -> Self {
+        if enabled && std::io::stderr().is_terminal() {
+            let sink = crate::solve::progress::install(std::sync::Arc::new(StepSink));
+            Bars {
+                multi: Some(indicatif::MultiProgress::new()),
+                enabled,
+                _sink: Some(sink),
+            }
+        } else {
+            Bars {
+                multi: None,
+                enabled,
+                _sink: None,
+            }
+        }
+    }
+}
+
+/// Runs `f` with `bar` as this thread's row bar (restored after: a thread
+/// waiting inside one row may run a row of another experiment).
+fn with_row_bar<T>(bar: Option<&indicatif::ProgressBar>, f: impl FnOnce() -> T) -> T {
+    let previous = ROW_BAR.with(|b| b.replace(bar.cloned()));
+    let out = f();
+    ROW_BAR.with(|b| *b.borrow_mut() = previous);
+    out
 }
 
 /// Saves the meshes a render needs: A, A′ (first poses), B, truths, labels.
@@ -186,51 +253,64 @@ fn serve_case_meshes(col: &Collection, cases: &[&Case], strict: bool) -> Result<
 
 enum Progress {
     /// The case bar; long steps inside a case write their progress into its
-    /// message ([`crate::solve::progress`]) while the guard lives.
+    /// message ([`crate::solve::progress`], through [`StepSink`]).
     Bar {
         bar: indicatif::ProgressBar,
-        _sink: crate::solve::progress::SinkGuard,
     },
     Log {
+        name: String,
         total: usize,
         start: Instant,
     },
     Quiet,
 }
 
-/// Long steps' progress shown in the case bar's message.
-struct StepSink(indicatif::ProgressBar);
+/// Long steps' progress shown in the message of the bar of the row the
+/// reporting thread runs (a step's parallel parts run by a thread outside
+/// any row are not shown).
+struct StepSink;
 
 impl crate::solve::progress::ProgressSink for StepSink {
     fn update(&self, step: &str, done: usize, total: usize) {
-        self.0.set_message(if total > 0 {
-            format!("{step} {done}/{total}")
-        } else {
-            format!("{step} {done}")
+        ROW_BAR.with(|b| {
+            if let Some(bar) = &*b.borrow() {
+                bar.set_message(if total > 0 {
+                    format!("{step} {done}/{total}")
+                } else {
+                    format!("{step} {done}")
+                });
+            }
         });
     }
 }
 
 impl Progress {
-    fn new(total: usize, name: &str, enabled: bool) -> Self {
-        if !enabled {
+    fn new(total: usize, name: &str, bars: &Bars) -> Self {
+        if !bars.enabled {
             return Progress::Quiet;
         }
-        if std::io::stderr().is_terminal() {
-            let bar = indicatif::ProgressBar::new(total as u64);
+        if let Some(multi) = &bars.multi {
+            let bar = multi.add(indicatif::ProgressBar::new(total as u64));
             if let Ok(style) = indicatif::ProgressStyle::with_template(
                 "{prefix} [{bar:30}] {pos}/{len} {wide_msg} elapsed {elapsed} ETA {eta}",
             ) {
                 bar.set_style(style.progress_chars("=> "));
             }
             bar.set_prefix(name.to_string());
-            let guard = crate::solve::progress::install(std::sync::Arc::new(StepSink(bar.clone())));
-            Progress::Bar { bar, _sink: guard }
+            Progress::Bar { bar }
         } else {
             Progress::Log {
+                name: name.to_string(),
                 total,
                 start: Instant::now(),
             }
+        }
+    }
+
+    fn bar(&self) -> Option<&indicatif::ProgressBar> {
+        match self {
+            Progress::Bar { bar } => Some(bar),
+            _ => None,
         }
     }
 
@@ -240,24 +320,30 @@ impl Progress {
                 b.set_message(line.to_string());
                 b.set_position(done as u64);
             }
-            Progress::Log { total, start } => {
+            Progress::Log { name, total, start } => {
                 let el = start.elapsed().as_secs_f64();
                 let eta = if done > 0 {
                     el / done as f64 * (total - done) as f64
                 } else {
                     0.0
                 };
-                eprintln!("[{done}/{total}] {line} (elapsed {el:.1} s, ETA {eta:.0} s)");
+                eprintln!("{name} [{done}/{total}] {line} (elapsed {el:.1} s, ETA {eta:.0} s)");
             }
             Progress::Quiet => {}
         }
     }
 
-    fn finish(&self) {
+    fn finish(&self, bars: &Bars) {
         if let Progress::Bar { bar: b, .. } = self {
             let (n, el) = (b.position(), b.elapsed().as_secs_f64());
             b.finish_and_clear();
-            eprintln!("{}: {n} case × method results in {el:.1} s", b.prefix());
+            if let Some(m) = &bars.multi {
+                m.remove(b);
+            }
+            bars.say(&format!(
+                "{}: {n} case × method results in {el:.1} s",
+                b.prefix()
+            ));
         }
     }
 }
@@ -302,7 +388,7 @@ fn stored_config(l: &LoadedConfig, col: &Collection, dir: &Path) -> Result<(Stor
     ))
 }
 
-fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
+fn run_one(l: &LoadedConfig, opts: &RunOptions, bars: &Bars) -> Result<RunSummary> {
     let t0 = Instant::now();
     let started = unix_now();
     let name = &l.config.name;
@@ -405,7 +491,7 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
         save_render_base(&col, c, &out, render_poses)?;
     }
     if opts.progress {
-        eprintln!(
+        bars.say(&format!(
             "{name}: {} cases ({} in this shard) × {} methods; {} stored, {} to run on {} thread(s) → {}",
             cases.len(),
             mine.len(),
@@ -414,19 +500,16 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
             work.len(),
             opts.threads,
             dir.display()
-        );
+        ));
     }
-    let progress = Progress::new(work.len(), name, opts.progress);
+    let progress = Progress::new(work.len(), name, bars);
     let done = AtomicUsize::new(0);
     let dropped = AtomicUsize::new(0);
     let first_error: Mutex<Option<Error>> = Mutex::new(None);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(crate::solve::cap_threads(opts.threads))
-        .build()
-        .map_err(|e| Error::invalid(format!("thread pool: {e}")))?;
     let metrics = &l.config.metrics;
-    pool.install(|| {
-        work.par_iter().for_each(|(case, m)| {
+    let row_bar = progress.bar();
+    {
+        work.par_iter().with_max_len(1).for_each(|(case, m)| {
             if first_error.lock().map(|e| e.is_some()).unwrap_or(true) {
                 return;
             }
@@ -458,7 +541,9 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
                 poses: render_poses,
                 format: mesh_format,
             });
-            let status = match run_method(&col, case, m, metrics, render.as_ref(), &mut r) {
+            let status = match with_row_bar(row_bar, || {
+                run_method(&col, case, m, metrics, render.as_ref(), &mut r)
+            }) {
                 Ok(()) => "ok".to_string(),
                 Err(e) => {
                     // Keep the identification cells, drop partial numbers.
@@ -507,8 +592,8 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions) -> Result<RunSummary> {
                 ),
             );
         });
-    });
-    progress.finish();
+    }
+    progress.finish(bars);
     if let Some(e) = first_error.into_inner().ok().flatten() {
         return Err(e);
     }
