@@ -220,17 +220,27 @@ fn one_and_two_threads_give_identical_results() {
     let t = tempfile::tempdir().unwrap();
     let cfg = write_config(t.path(), CONFIG);
     let out = t.path().join("out");
-    ok(&[
-        "run",
-        cfg.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--threads",
-        "1",
-        "--no-plots",
+    run_without_plots(&[&cfg], &out, 1);
+    assert_same_results(&out.join("tiny"), ref_dir);
+}
+
+/// `deformlab run CONFIGS --out OUT --threads N --no-plots` (must succeed).
+fn run_without_plots(configs: &[&Path], out: &Path, threads: usize) -> std::process::Output {
+    let mut args: Vec<String> = vec!["run".into()];
+    args.extend(configs.iter().map(|c| c.display().to_string()));
+    args.extend([
+        "--out".into(),
+        out.display().to_string(),
+        "--threads".into(),
+        threads.to_string(),
+        "--no-plots".into(),
     ]);
-    let dir = out.join("tiny");
-    assert_eq!(cases_without_timing(&dir), cases_without_timing(ref_dir));
+    ok(&args)
+}
+
+/// The same `cases.csv` (apart from timing) and `curves.csv`.
+fn assert_same_results(dir: &Path, ref_dir: &Path) {
+    assert_eq!(cases_without_timing(dir), cases_without_timing(ref_dir));
     assert_eq!(
         std::fs::read(dir.join("curves.csv")).unwrap(),
         std::fs::read(ref_dir.join("curves.csv")).unwrap()
@@ -253,18 +263,8 @@ fn configs_run_side_by_side_give_the_results_of_separate_runs() {
     );
     let cfg = write_config(t.path(), CONFIG);
     let out = t.path().join("out");
-    let o = ok(&[
-        "run",
-        other.to_str().unwrap(),
-        cfg.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--threads",
-        "2",
-        "--no-plots",
-    ]);
-    let dir = out.join("tiny");
-    assert_eq!(cases_without_timing(&dir), cases_without_timing(ref_dir));
+    let o = run_without_plots(&[&other, &cfg], &out, 2);
+    assert_same_results(&out.join("tiny"), ref_dir);
     assert_eq!(count_results(&out.join("other")), N_RESULTS);
     assert_ne!(
         cases_without_timing(&out.join("other")),
