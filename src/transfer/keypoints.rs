@@ -876,9 +876,9 @@ struct Selector<'c, 'a> {
     /// The current key point set and its per-handle weights before
     /// normalisation: the active-set start of exact evaluations.
     base: Option<(Vec<usize>, DMatrix<f64>)>,
-    /// Per-handle weights of the exact evaluations since the last
-    /// [`Selector::rebase`].
-    fresh: std::collections::HashMap<Vec<usize>, DMatrix<f64>>,
+    /// Per-handle weights of the best exact evaluation computed since the
+    /// last [`Selector::rebase`].
+    fresh: Option<(Vec<usize>, DMatrix<f64>)>,
     /// Exact evaluations (a subset of `evaluations`).
     exact: usize,
     /// What the current greedy step is (progress reports only).
@@ -920,11 +920,17 @@ impl Selector<'_, '_> {
             self.exact += todo.len();
         }
         self.cached += trials.len() - todo.len();
+        // Only the best computed trial can become the next key point set:
+        // keep its per-handle weights alone (exact mode computes ~n_c).
+        let mut best = f64::INFINITY;
         for (s, r) in todo.into_iter().zip(results) {
             let e = match r {
                 Ok(e) => {
                     if let Some(raw) = e.unnormalized {
-                        self.fresh.insert(s.clone(), raw);
+                        if e.error < best {
+                            best = e.error;
+                            self.fresh = Some((s.clone(), raw));
+                        }
                     }
                     e.error
                 }
@@ -944,12 +950,13 @@ impl Selector<'_, '_> {
 
     /// Makes `set` (the current key points, just evaluated or unchanged)
     /// the active-set start of the next exact evaluations, if its weights
-    /// were computed since the last call; forgets the other trials'.
+    /// were computed since the last call; forgets the other trial's.
     fn rebase(&mut self, set: &[usize]) {
-        if let Some(raw) = self.fresh.remove(set) {
-            self.base = Some((set.to_vec(), raw));
+        if let Some((s, raw)) = self.fresh.take() {
+            if s == set {
+                self.base = Some((s, raw));
+            }
         }
-        self.fresh.clear();
     }
 
     /// Index and exact error of the best trial (lowest index on ties). Fast
