@@ -508,91 +508,89 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions, bars: &Bars) -> Result<RunSummar
     let first_error: Mutex<Option<Error>> = Mutex::new(None);
     let metrics = &l.config.metrics;
     let row_bar = progress.bar();
-    {
-        work.par_iter().with_max_len(1).for_each(|(case, m)| {
-            if first_error.lock().map(|e| e.is_some()).unwrap_or(true) {
+    work.par_iter().with_max_len(1).for_each(|(case, m)| {
+        if first_error.lock().map(|e| e.is_some()).unwrap_or(true) {
+            return;
+        }
+        let t = Instant::now();
+        let mut r = CaseResult {
+            case: case.index,
+            case_id: case.id.clone(),
+            method: m.name.clone(),
+            ..Default::default()
+        };
+        r.set("case", case.index.to_string());
+        r.set("case_id", case.id.clone());
+        r.set("source", case.source.clone());
+        r.set("target", case.target.clone());
+        r.set("reference_pose", case.reference.clone());
+        r.set("poses", case.poses.join(";"));
+        r.set("method", m.name.clone());
+        r.set("group", m.group.clone());
+        r.set("kind", m.method.kind_name());
+        let mdir = store.mesh_dir(&case.id);
+        // Renders show one method per group: save only its meshes.
+        let first_of_group = l
+            .methods
+            .iter()
+            .find(|x| x.group == m.group)
+            .is_some_and(|x| x.name == m.name);
+        let render = (case.index < render_cases && first_of_group).then(|| RenderOut {
+            dir: &mdir,
+            poses: render_poses,
+            format: mesh_format,
+        });
+        let status = match with_row_bar(row_bar, || {
+            run_method(&col, case, m, metrics, render.as_ref(), &mut r)
+        }) {
+            Ok(()) => "ok".to_string(),
+            Err(e) => {
+                // Keep the identification cells, drop partial numbers.
+                let keep = [
+                    "case",
+                    "case_id",
+                    "source",
+                    "target",
+                    "reference_pose",
+                    "poses",
+                    "method",
+                    "group",
+                    "kind",
+                ];
+                r.cells.retain(|k, _| keep.contains(&k.as_str()));
+                r.curves.clear();
+                r.set("seconds_total", secs(t.elapsed().as_secs_f64()));
+                format!("failed: {e}").replace(['\n', '\r'], " ")
+            }
+        };
+        r.set("status", status.clone());
+        match store.put(&r) {
+            Ok(true) => {}
+            // Stored meanwhile by a run of an overlapping shard: its
+            // result stays, this one is dropped.
+            Ok(false) => {
+                dropped.fetch_add(1, Ordering::Relaxed);
+            }
+            Err(e) => {
+                if let Ok(mut slot) = first_error.lock() {
+                    slot.get_or_insert(e);
+                }
                 return;
             }
-            let t = Instant::now();
-            let mut r = CaseResult {
-                case: case.index,
-                case_id: case.id.clone(),
-                method: m.name.clone(),
-                ..Default::default()
-            };
-            r.set("case", case.index.to_string());
-            r.set("case_id", case.id.clone());
-            r.set("source", case.source.clone());
-            r.set("target", case.target.clone());
-            r.set("reference_pose", case.reference.clone());
-            r.set("poses", case.poses.join(";"));
-            r.set("method", m.name.clone());
-            r.set("group", m.group.clone());
-            r.set("kind", m.method.kind_name());
-            let mdir = store.mesh_dir(&case.id);
-            // Renders show one method per group: save only its meshes.
-            let first_of_group = l
-                .methods
-                .iter()
-                .find(|x| x.group == m.group)
-                .is_some_and(|x| x.name == m.name);
-            let render = (case.index < render_cases && first_of_group).then(|| RenderOut {
-                dir: &mdir,
-                poses: render_poses,
-                format: mesh_format,
-            });
-            let status = match with_row_bar(row_bar, || {
-                run_method(&col, case, m, metrics, render.as_ref(), &mut r)
-            }) {
-                Ok(()) => "ok".to_string(),
-                Err(e) => {
-                    // Keep the identification cells, drop partial numbers.
-                    let keep = [
-                        "case",
-                        "case_id",
-                        "source",
-                        "target",
-                        "reference_pose",
-                        "poses",
-                        "method",
-                        "group",
-                        "kind",
-                    ];
-                    r.cells.retain(|k, _| keep.contains(&k.as_str()));
-                    r.curves.clear();
-                    r.set("seconds_total", secs(t.elapsed().as_secs_f64()));
-                    format!("failed: {e}").replace(['\n', '\r'], " ")
-                }
-            };
-            r.set("status", status.clone());
-            match store.put(&r) {
-                Ok(true) => {}
-                // Stored meanwhile by a run of an overlapping shard: its
-                // result stays, this one is dropped.
-                Ok(false) => {
-                    dropped.fetch_add(1, Ordering::Relaxed);
-                }
-                Err(e) => {
-                    if let Ok(mut slot) = first_error.lock() {
-                        slot.get_or_insert(e);
-                    }
-                    return;
-                }
-            }
-            let k = done.fetch_add(1, Ordering::Relaxed) + 1;
-            progress.tick(
-                k,
-                &format!(
-                    "case {} {} × {}: {} ({:.2} s)",
-                    case.index,
-                    case.id,
-                    m.name,
-                    if status == "ok" { "ok" } else { &status },
-                    t.elapsed().as_secs_f64()
-                ),
-            );
-        });
-    }
+        }
+        let k = done.fetch_add(1, Ordering::Relaxed) + 1;
+        progress.tick(
+            k,
+            &format!(
+                "case {} {} × {}: {} ({:.2} s)",
+                case.index,
+                case.id,
+                m.name,
+                if status == "ok" { "ok" } else { &status },
+                t.elapsed().as_secs_f64()
+            ),
+        );
+    });
     progress.finish(bars);
     if let Some(e) = first_error.into_inner().ok().flatten() {
         return Err(e);

@@ -485,6 +485,10 @@ impl Biharmonic {
             }
         }
         let qff = sparse_from_triplets(nf, nf, trip);
+        let starts = match opts.mode {
+            WeightMode::Unbounded => Vec::new(),
+            _ => start_columns(start, handles, &free, n)?,
+        };
         let wf: DMatrix<f64> = match opts.mode {
             WeightMode::Unbounded => {
                 let fac = SparseCholesky::new(&qff)?;
@@ -492,14 +496,12 @@ impl Biharmonic {
                 fac.try_solve(&(-&b))?
             }
             WeightMode::PerHandle => {
-                let starts = start_columns(start, handles, &free, n)?;
                 let (raw, unbounded) = per_handle_raw(&qff, &b, opts, &starts, &mut report)?;
                 let wf = normalise_rows(&raw, &unbounded);
                 report.unnormalized = Some(raw);
                 wf
             }
             WeightMode::Coupled => {
-                let starts = start_columns(start, handles, &free, n)?;
                 let (raw, unbounded) = per_handle_raw(&qff, &b, opts, &starts, &mut report)?;
                 let mut x0 = normalise_rows(&raw, &unbounded);
                 report.unnormalized = Some(raw);
@@ -582,11 +584,15 @@ fn per_handle_raw(
         .into_par_iter()
         .map(|k| {
             let bk: Vec<f64> = b.column(k).iter().copied().collect();
-            let x0: Vec<f64> = match starts.get(k) {
-                Some(Some(x0)) => x0.clone(),
-                _ => warm.column(k).iter().copied().collect(),
+            let from_warm: Vec<f64>;
+            let x0: &[f64] = match starts.get(k) {
+                Some(Some(x0)) => x0,
+                _ => {
+                    from_warm = warm.column(k).iter().copied().collect();
+                    &from_warm
+                }
             };
-            let s = qp.solve(&bk, 0.0, 1.0, Some(&x0), opts.max_iter, opts.tol);
+            let s = qp.solve(&bk, 0.0, 1.0, Some(x0), opts.max_iter, opts.tol);
             let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             progress::update(&step, d, nh);
             s

@@ -906,34 +906,41 @@ impl Selector<'_, '_> {
             handles: h,
             unnormalized: w,
         });
-        let results: Vec<Result<Eval>> = todo
+        // Only the best computed trial (lowest error, then lowest index) can
+        // become the next key point set: only its per-handle weights are
+        // kept, as the trials finish (exact mode computes ~n_c of them).
+        let best: std::sync::Mutex<Option<(f64, usize, DMatrix<f64>)>> = Default::default();
+        let results: Vec<Result<f64>> = todo
             .par_iter()
-            .map(|s| {
-                let r = ctx.evaluate(s, fast, false, start.as_ref());
+            .enumerate()
+            .map(|(i, s)| {
+                let r = ctx.evaluate(s, fast, false, start.as_ref()).map(|e| {
+                    if let Some(raw) = e.unnormalized {
+                        let mut b = best.lock().unwrap_or_else(|p| p.into_inner());
+                        if b.as_ref()
+                            .is_none_or(|(be, bi, _)| (e.error, i) < (*be, *bi))
+                        {
+                            *b = Some((e.error, i, raw));
+                        }
+                    }
+                    e.error
+                });
                 let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
                 progress::update(&step, d, total);
                 r
             })
             .collect();
+        if let Some((_, i, raw)) = best.into_inner().unwrap_or_else(|p| p.into_inner()) {
+            self.fresh = Some((todo[i].clone(), raw));
+        }
         self.evaluations += todo.len();
         if !is_fast {
             self.exact += todo.len();
         }
         self.cached += trials.len() - todo.len();
-        // Only the best computed trial can become the next key point set:
-        // keep its per-handle weights alone (exact mode computes ~n_c).
-        let mut best = f64::INFINITY;
         for (s, r) in todo.into_iter().zip(results) {
             let e = match r {
-                Ok(e) => {
-                    if let Some(raw) = e.unnormalized {
-                        if e.error < best {
-                            best = e.error;
-                            self.fresh = Some((s.clone(), raw));
-                        }
-                    }
-                    e.error
-                }
+                Ok(e) => e,
                 Err(Error::Numerical(_)) => {
                     self.failed += 1;
                     f64::INFINITY
