@@ -211,3 +211,47 @@ fn each_option_changes_the_result() {
     assert!(moved(&run(screening)) > 1e-6, "target weights");
     let _ = Path::new(".");
 }
+
+/// `--help` prints the library's defaults, not a copy that can drift (the
+/// weights' `--max-iter` help said 200 after the library moved to 1000).
+#[test]
+fn help_prints_the_library_defaults() {
+    use clap::ValueEnum;
+    let help = |cmd: &str| {
+        let out = Command::new(BIN).args([cmd, "--help"]).output().unwrap();
+        assert!(out.status.success(), "{cmd} --help failed");
+        // clap wraps long lines; compare with whitespace collapsed.
+        String::from_utf8(out.stdout)
+            .unwrap()
+            .split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    let name = |v: &dyn Fn() -> Option<clap::builder::PossibleValue>| {
+        v().map(|p| p.get_name().to_string()).unwrap()
+    };
+    let k = KeypointOptions::default();
+    let b = deformlab::skin::bbw::BbwOptions::default();
+    let keypoints = help("keypoints");
+    for want in [
+        k.n_candidates.to_string(),
+        k.seed.to_string(),
+        k.epsilon.to_string(),
+        k.max_keypoints.to_string(),
+        name(&|| k.mode.to_possible_value()),
+        name(&|| k.error_norm.to_possible_value()),
+        name(&|| k.weights.mode.to_possible_value()),
+    ] {
+        let s = format!("[default: the library's, {want}]");
+        assert!(
+            keypoints.contains(&s),
+            "keypoints --help lacks {s}:\n{keypoints}"
+        );
+    }
+    let weights = help("weights");
+    for want in [b.max_iter.to_string(), name(&|| b.mode.to_possible_value())] {
+        let s = format!("[default: the library's, {want}]");
+        assert!(weights.contains(&s), "weights --help lacks {s}:\n{weights}");
+    }
+    assert!(!weights.contains("library's, 200]"), "{weights}");
+}

@@ -21,6 +21,20 @@ use deformlab::transfer::keypoints::{
 };
 use deformlab::{Error, Mesh, Result};
 
+/// An option's help line ending in the library's default (the one
+/// definition), so `--help` cannot drift from [`KeypointOptions::default`]
+/// or [`deformlab::skin::bbw::BbwOptions::default`].
+pub(crate) fn default_help(text: &str, default: impl std::fmt::Display) -> String {
+    format!("{text} [default: the library's, {default}]")
+}
+
+/// The command-line spelling of an enum value.
+pub(crate) fn value_name<T: clap::ValueEnum>(v: &T) -> String {
+    v.to_possible_value()
+        .map(|p| p.get_name().to_string())
+        .unwrap_or_else(|| "?".into())
+}
+
 /// Source, deformed sources and the selection settings (shared by
 /// `keypoints` and `transfer`). Every option left out takes the library's
 /// default ([`KeypointOptions::default`]), as a config without the key does.
@@ -33,31 +47,46 @@ pub struct SelectArgs {
     #[arg(long, num_args = 1.., required = true)]
     pub deformed: Vec<PathBuf>,
     /// Number of farthest-point-sampled candidates n_c, 1..=100000 and at most
-    /// the source's vertex count [default: 100].
-    #[arg(long, value_parser = NCandidates::parse)]
+    /// the source's vertex count [default: the library's, printed by `--help`].
+    #[arg(long, value_parser = NCandidates::parse, help = default_help(
+        "Number of farthest-point-sampled candidates n_c, 1..=100000 and at most the source's vertex count",
+        KeypointOptions::default().n_candidates))]
     pub candidates: Option<usize>,
-    /// Seed of every random choice (first FPS sample, k-means of the groups) [default: 0].
-    #[arg(long)]
+    /// Seed of every random choice (first FPS sample, k-means of the groups).
+    #[arg(long, help = default_help(
+        "Seed of every random choice (first FPS sample, k-means of the groups)",
+        KeypointOptions::default().seed))]
     pub seed: Option<u64>,
     /// Stop adding key points when the error (unit-sphere units) is below ε,
-    /// a finite number ≥ 0 [default: 0.03].
-    #[arg(long, value_parser = Epsilon::parse)]
+    /// a finite number ≥ 0.
+    #[arg(long, value_parser = Epsilon::parse, help = default_help(
+        "Stop adding key points when the error (unit-sphere units) is below ε, a finite number ≥ 0",
+        KeypointOptions::default().epsilon))]
     pub epsilon: Option<f64>,
-    /// Upper bound on the number of key points, 1..=1000 [default: 30].
-    #[arg(long, value_parser = MaxKeypoints::parse)]
+    /// Upper bound on the number of key points, 1..=1000.
+    #[arg(long, value_parser = MaxKeypoints::parse, help = default_help(
+        "Upper bound on the number of key points, 1..=1000",
+        KeypointOptions::default().max_keypoints))]
     pub max_keypoints: Option<usize>,
-    /// Candidate scoring [default: fast].
-    #[arg(long, value_enum)]
+    /// Candidate scoring.
+    #[arg(long, value_enum, help = default_help(
+        "Candidate scoring", value_name(&KeypointOptions::default().mode)))]
     pub mode: Option<SelectionMode>,
-    /// Error compared with ε [default: mean].
-    #[arg(long, value_enum)]
+    /// Error compared with ε.
+    #[arg(long, value_enum, help = default_help(
+        "Error compared with ε", value_name(&KeypointOptions::default().error_norm)))]
     pub error_norm: Option<ErrorNorm>,
     /// Bounded biharmonic weights of every fit on the source (trials and
     /// the final fit) and of the target in `transfer`: per-handle = each
     /// handle bounded separately, rows normalised (libigl's bbw, BDT's
     /// ref. [5]); coupled = BDT Eq. 1 as written (bounds and partition of
-    /// unity in one problem, slower) [default: per-handle].
-    #[arg(long, value_enum)]
+    /// unity in one problem, slower).
+    #[arg(long, value_enum, help = default_help(
+        "Bounded biharmonic weights of every fit on the source (trials and the final fit) and of \
+         the target in `transfer`: per-handle = each handle bounded separately, rows normalised \
+         (libigl's bbw, BDT's ref. [5]); coupled = BDT Eq. 1 as written (bounds and partition of \
+         unity in one problem, slower)",
+        value_name(&KeypointOptions::default().weights.mode)))]
     pub weights: Option<WeightMode>,
     /// Refuse meshes with defects that change results (duplicate or
     /// zero-area faces, non-manifold edges or vertices, inconsistent winding,
