@@ -248,14 +248,30 @@ pub fn generalized_eigen(
     }
 
     // K = L + sM, factorised once; its pattern also serves L − σM.
-    let pencil = |sigma: f64| {
-        sparse_from_triplets(
+    // L − σM: L's own pattern with the masses added on its diagonal when
+    // every diagonal entry is stored (Laplacians), else assembled.
+    let diag_pos: Option<Vec<usize>> = (0..n)
+        .map(|j| {
+            let (off, rows) = (l.col_offsets(), l.row_indices());
+            (off[j]..off[j + 1]).find(|&p| rows[p] == j)
+        })
+        .collect();
+    let pencil = |sigma: f64| match &diag_pos {
+        Some(pos) => {
+            let mut p = l.clone();
+            let vals = p.values_mut();
+            for (i, &at) in pos.iter().enumerate() {
+                vals[at] -= sigma * m[i];
+            }
+            p
+        }
+        None => sparse_from_triplets(
             n,
             n,
             l.triplet_iter()
                 .map(|(i, j, &v)| (i, j, v))
                 .chain(m.iter().enumerate().map(|(i, &mi)| (i, i, -sigma * mi))),
-        )
+        ),
     };
     let k_mat = pencil(-shift);
     let symbolic = SymbolicCholesky::new_supernodal(&k_mat)?;
@@ -277,7 +293,7 @@ pub fn generalized_eigen(
         let dim_now = dim.min(n - 1);
         let seed = opts.seed.wrapping_add(attempt as u64 - 1);
         let found = block_krylov(&op, k, block, dim_now, opts.lanczos_tol, seed)
-            .and_then(|(basis, _)| ctx.refine(&op, basis, k));
+            .and_then(|(basis, images, _)| ctx.refine(&op, basis, images, k));
         match found {
             Ok((values, vectors)) => {
                 match ctx.verify(
@@ -317,6 +333,7 @@ impl Context<'_> {
         &self,
         op: &ShiftInvert<'_>,
         mut basis: DMatrix<f64>,
+        mut images: Option<Vec<f64>>,
         k: usize,
     ) -> Result<(Vec<f64>, DMatrix<f64>)> {
         let (n, p) = basis.shape();
@@ -328,12 +345,18 @@ impl Context<'_> {
         let mut last = f64::INFINITY;
         for step in 0..REFINE_STEPS {
             // Z = K⁻¹ M Φ via the symmetric operator: K⁻¹ M φ = M^{-½} A M^{½} φ / s.
-            for (yc, bc) in y.chunks_exact_mut(n).zip(basis.as_slice().chunks_exact(n)) {
-                for ((yi, &bi), s) in yc.iter_mut().zip(bc).zip(&op.sqrt_m) {
-                    *yi = bi * s;
+            // In the first step `A M^{½} φ` are the Ritz vectors' images
+            // that the Krylov phase already formed (no new solves).
+            if let Some(au) = images.take().filter(|au| au.len() == n * p) {
+                y.copy_from_slice(&au);
+            } else {
+                for (yc, bc) in y.chunks_exact_mut(n).zip(basis.as_slice().chunks_exact(n)) {
+                    for ((yi, &bi), s) in yc.iter_mut().zip(bc).zip(&op.sqrt_m) {
+                        *yi = bi * s;
+                    }
                 }
+                op.apply_in_place(&mut y, p)?;
             }
-            op.apply_in_place(&mut y, p)?;
             // M-orthonormal basis of Z: Euclidean QR of M^{½} Z = A y / s.
             thin_qr(fcols_mut(&mut y, n, 0, p), fcols_mut(&mut q, n, 0, p), None);
             for col in q.chunks_exact_mut(n) {
@@ -578,6 +601,10 @@ impl std::fmt::Debug for ShiftInvert<'_> {
 /// Dense work runs on buffers allocated once, with faer's blocked products,
 /// QR and symmetric eigensolver; the orthonormalisation of a block is block
 /// classical Gram–Schmidt twice, Householder QR, once more and QR again.
+///
+/// Returns the best `k + b` Ritz vectors `φ = M^{-½} u`, their images `A u`
+/// (column-major; the refinement's first step starts from them) and the
+/// number of solves.
 fn block_krylov(
     op: &ShiftInvert<'_>,
     k: usize,
@@ -585,7 +612,7 @@ fn block_krylov(
     max_dim: usize,
     screen_tol: f64,
     seed: u64,
-) -> Result<(DMatrix<f64>, usize)> {
+) -> Result<(DMatrix<f64>, Option<Vec<f64>>, usize)> {
     let n = op.sqrt_m.len();
     let b = b.clamp(1, n);
     let max_dim = max_dim.clamp((k + 2 * b).min(n), n);
@@ -796,7 +823,8 @@ fn block_krylov(
                 ritz(p, &mut ritz_u, &mut ritz_au);
             }
             let vectors = DMatrix::from_fn(n, p, |i, j| ritz_u[j * n + i] / op.sqrt_m[i]);
-            return Ok((vectors, solves));
+            ritz_au.truncate(n * p);
+            return Ok((vectors, Some(ritz_au), solves));
         }
         if restart {
             // Thick restart: keep the best `keep` Ritz vectors (and their
