@@ -789,8 +789,11 @@ fn block_krylov(
                 // see it) keeps falling while the explicit residual stalls.
                 explicit_mode |= estimate <= screen_tol || might_stagnate;
                 if explicit_mode {
-                    ritz(k, &mut ritz_u, &mut ritz_au);
-                    have_ritz = k;
+                    // The `k + b` vectors returned on success, so that
+                    // they need not be formed again.
+                    let c = (k + b).min(d);
+                    ritz(c, &mut ritz_u, &mut ritz_au);
+                    have_ritz = c;
                     explicit(&ritz_u, &ritz_au)
                 } else {
                     estimate
