@@ -82,8 +82,9 @@ const RR_SKIP_MARGIN: f64 = 30.0;
 /// Default block size. Smaller blocks need fewer solves in all (single-vector
 /// Lanczos, ARPACK's, is the limit) but more, narrower steps; with
 /// Rayleigh–Ritz skipped between restarts (`RR_SKIP_MARGIN`) the steps are
-/// cheap. Measured on FAUST `tr_reg_001` (6 890 vertices, 1 thread, medians;
-/// max_dim, block → seconds): k = 20: (100, 8) 0.094, (60, 8) 0.100,
+/// cheap. Measured when this default was chosen (before the refinement
+/// reused the Krylov images; FAUST `tr_reg_001`, 6 890 vertices, 1 thread,
+/// medians; max_dim, block → seconds): k = 20: (100, 8) 0.094, (60, 8) 0.100,
 /// (60, 6) 0.073, (60, 4) 0.072; k = 100: (300, 25) 0.59, (250, 8) 0.44,
 /// (300, 6) 0.45, (200, 6) 0.56. At 28k (TOSCA cat0) k = 20 / 100: 0.54 /
 /// 2.77 s → 0.48 / 2.25 s; at 108k: 2.33 / 11.9 s → 2.08 / 9.5 s (old →
