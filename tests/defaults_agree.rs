@@ -254,4 +254,22 @@ fn help_prints_the_library_defaults() {
         assert!(weights.contains(&s), "weights --help lacks {s}:\n{weights}");
     }
     assert!(!weights.contains("library's, 200]"), "{weights}");
+    // transfer: the selection options as keypoints, and where the
+    // transforms act on B (its help said "direct" while the default is the
+    // unit sphere).
+    let d = BdtOptions::default();
+    let transfer = help("transfer");
+    for want in [
+        name(&|| d.frame.to_possible_value()),
+        name(&|| d.target_weights.to_possible_value()),
+        k.n_candidates.to_string(),
+        name(&|| k.weights.mode.to_possible_value()),
+    ] {
+        let s = format!("[default: the library's, {want}]");
+        assert!(
+            transfer.contains(&s),
+            "transfer --help lacks {s}:\n{transfer}"
+        );
+    }
+    assert!(!transfer.contains("[default: direct]"), "{transfer}");
 }

@@ -97,11 +97,15 @@ pub struct TransferArgs {
     /// Output folder (created if missing).
     #[arg(long)]
     pub out: PathBuf,
-    /// How the transforms act on B [default: direct].
-    #[arg(long, value_enum)]
+    /// How the transforms act on B [default: the library's, printed by `--help`].
+    #[arg(long, value_enum, help = super::keypoints::default_help(
+        "How the transforms act on B",
+        super::keypoints::value_name(&BdtOptions::default().frame)))]
     pub frame: Option<TransferFrame>,
-    /// Weights computed on B (auto: those of the fit on A, per --mode) [default: auto].
-    #[arg(long, value_enum)]
+    /// Weights computed on B (auto: those of the fit on A, per --mode).
+    #[arg(long, value_enum, help = super::keypoints::default_help(
+        "Weights computed on B (auto: those of the fit on A, per --mode)",
+        super::keypoints::value_name(&BdtOptions::default().target_weights)))]
     pub target_weights: Option<TargetWeights>,
     /// Refine each B′ with handle-constrained reduced ARAP on B.
     #[arg(long)]
