@@ -436,7 +436,8 @@ macro_rules! pipeline_struct {
             /// transforms are then fitted on all of them). Default: all.
             #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<1, 1000>::de")]
             pub selection_poses: Option<usize>,
-            /// `direct` (default) or `handle_relative`.
+            /// `unit_sphere` (the library's default, `BdtOptions::default`),
+            /// `raw` (alias `direct`) or `handle_relative`.
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub frame: Option<TransferFrame>,
             /// ARAP refinement on the target (default false).
