@@ -227,9 +227,9 @@ fn help_prints_the_library_defaults() {
             .collect::<Vec<_>>()
             .join(" ")
     };
-    let name = |v: &dyn Fn() -> Option<clap::builder::PossibleValue>| {
-        v().map(|p| p.get_name().to_string()).unwrap()
-    };
+    fn name<T: ValueEnum>(v: &T) -> String {
+        v.to_possible_value().unwrap().get_name().to_string()
+    }
     let k = KeypointOptions::default();
     let b = deformlab::skin::bbw::BbwOptions::default();
     let keypoints = help("keypoints");
@@ -238,9 +238,9 @@ fn help_prints_the_library_defaults() {
         k.seed.to_string(),
         k.epsilon.to_string(),
         k.max_keypoints.to_string(),
-        name(&|| k.mode.to_possible_value()),
-        name(&|| k.error_norm.to_possible_value()),
-        name(&|| k.weights.mode.to_possible_value()),
+        name(&k.mode),
+        name(&k.error_norm),
+        name(&k.weights.mode),
     ] {
         let s = format!("[default: the library's, {want}]");
         assert!(
@@ -249,7 +249,7 @@ fn help_prints_the_library_defaults() {
         );
     }
     let weights = help("weights");
-    for want in [b.max_iter.to_string(), name(&|| b.mode.to_possible_value())] {
+    for want in [b.max_iter.to_string(), name(&b.mode)] {
         let s = format!("[default: the library's, {want}]");
         assert!(weights.contains(&s), "weights --help lacks {s}:\n{weights}");
     }
@@ -260,10 +260,10 @@ fn help_prints_the_library_defaults() {
     let d = BdtOptions::default();
     let transfer = help("transfer");
     for want in [
-        name(&|| d.frame.to_possible_value()),
-        name(&|| d.target_weights.to_possible_value()),
+        name(&d.frame),
+        name(&d.target_weights),
         k.n_candidates.to_string(),
-        name(&|| k.weights.mode.to_possible_value()),
+        name(&k.weights.mode),
     ] {
         let s = format!("[default: the library's, {want}]");
         assert!(

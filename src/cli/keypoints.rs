@@ -46,41 +46,35 @@ pub struct SelectArgs {
     /// Deformed sources A′ (same connectivity as A), one or more.
     #[arg(long, num_args = 1.., required = true)]
     pub deformed: Vec<PathBuf>,
-    /// Number of farthest-point-sampled candidates n_c, 1..=100000 and at most
-    /// the source's vertex count [default: the library's, printed by `--help`].
+    /// Help text (with the library's default) in `help` below.
     #[arg(long, value_parser = NCandidates::parse, help = default_help(
         "Number of farthest-point-sampled candidates n_c, 1..=100000 and at most the source's vertex count",
         KeypointOptions::default().n_candidates))]
     pub candidates: Option<usize>,
-    /// Seed of every random choice (first FPS sample, k-means of the groups).
+    /// Help text (with the library's default) in `help` below.
     #[arg(long, help = default_help(
         "Seed of every random choice (first FPS sample, k-means of the groups)",
         KeypointOptions::default().seed))]
     pub seed: Option<u64>,
-    /// Stop adding key points when the error (unit-sphere units) is below ε,
-    /// a finite number ≥ 0.
+    /// Help text (with the library's default) in `help` below.
     #[arg(long, value_parser = Epsilon::parse, help = default_help(
         "Stop adding key points when the error (unit-sphere units) is below ε, a finite number ≥ 0",
         KeypointOptions::default().epsilon))]
     pub epsilon: Option<f64>,
-    /// Upper bound on the number of key points, 1..=1000.
+    /// Help text (with the library's default) in `help` below.
     #[arg(long, value_parser = MaxKeypoints::parse, help = default_help(
         "Upper bound on the number of key points, 1..=1000",
         KeypointOptions::default().max_keypoints))]
     pub max_keypoints: Option<usize>,
-    /// Candidate scoring.
+    /// Help text (with the library's default) in `help` below.
     #[arg(long, value_enum, help = default_help(
         "Candidate scoring", value_name(&KeypointOptions::default().mode)))]
     pub mode: Option<SelectionMode>,
-    /// Error compared with ε.
+    /// Help text (with the library's default) in `help` below.
     #[arg(long, value_enum, help = default_help(
         "Error compared with ε", value_name(&KeypointOptions::default().error_norm)))]
     pub error_norm: Option<ErrorNorm>,
-    /// Bounded biharmonic weights of every fit on the source (trials and
-    /// the final fit) and of the target in `transfer`: per-handle = each
-    /// handle bounded separately, rows normalised (libigl's bbw, BDT's
-    /// ref. [5]); coupled = BDT Eq. 1 as written (bounds and partition of
-    /// unity in one problem, slower).
+    /// Help text (with the library's default) in `help` below.
     #[arg(long, value_enum, help = default_help(
         "Bounded biharmonic weights of every fit on the source (trials and the final fit) and of \
          the target in `transfer`: per-handle = each handle bounded separately, rows normalised \

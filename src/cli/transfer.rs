@@ -97,12 +97,12 @@ pub struct TransferArgs {
     /// Output folder (created if missing).
     #[arg(long)]
     pub out: PathBuf,
-    /// How the transforms act on B [default: the library's, printed by `--help`].
+    /// Help text (with the library's default) in `help` below.
     #[arg(long, value_enum, help = super::keypoints::default_help(
         "How the transforms act on B",
         super::keypoints::value_name(&BdtOptions::default().frame)))]
     pub frame: Option<TransferFrame>,
-    /// Weights computed on B (auto: those of the fit on A, per --mode).
+    /// Help text (with the library's default) in `help` below.
     #[arg(long, value_enum, help = super::keypoints::default_help(
         "Weights computed on B (auto: those of the fit on A, per --mode)",
         super::keypoints::value_name(&BdtOptions::default().target_weights)))]

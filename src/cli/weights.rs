@@ -42,16 +42,13 @@ pub struct WeightsArgs {
     /// Seed of the first farthest-point sample [default: 0].
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Which weights: coupled = BDT Eq. 1 (bounds and partition of unity in
-    /// one problem); per-handle = each handle bounded, rows normalised
-    /// [default: the library's, printed by `--help`].
+    /// Help text (with the library's default) in `help` below.
     #[arg(long, value_enum, help = super::keypoints::default_help(
         "Which weights: coupled = BDT Eq. 1 (bounds and partition of unity in one problem); \
          per-handle = each handle bounded, rows normalised",
         super::keypoints::value_name(&BbwOptions::default().mode)))]
     pub mode: Option<WeightMode>,
-    /// Active-set iterations allowed, 1..=100000 [default: the library's,
-    /// `BbwOptions::max_iter`, printed by `--help`].
+    /// Help text (with the library's default) in `help` below.
     #[arg(long, value_parser = MaxIter::parse, help = super::keypoints::default_help(
         "Active-set iterations allowed, 1..=100000", BbwOptions::default().max_iter))]
     pub max_iter: Option<usize>,
