@@ -217,16 +217,71 @@ fn admm_warm_start_changes_only_the_start() {
         opts.admm.max_iter = 50;
         let warm = bh.weights_with_report(&handles, &opts).unwrap();
         assert!(cold.converged && warm.converged);
-        // Factorisations: the unbounded solve, one per active-set iteration,
-        // and (warm) ADMM's A + ρD at least once.
-        assert_eq!(cold.factorizations, cold.iterations + 1, "{mode:?}");
-        assert!(warm.factorizations >= warm.iterations + 2, "{mode:?}");
+        // Factorisations: the unbounded solve, one per active-set iteration
+        // (global or local), and (warm) ADMM's A + ρD at least once.
+        assert_eq!(
+            cold.factorizations,
+            cold.iterations + cold.local_iterations + 1,
+            "{mode:?}"
+        );
+        assert!(
+            warm.factorizations >= warm.iterations + warm.local_iterations + 2,
+            "{mode:?}"
+        );
         let diff = (&cold.weights - &warm.weights).abs().max();
         assert!(
             diff < 1e-6,
             "{mode:?}: warm start moved the weights by {diff}"
         );
         check_common(&warm.weights, &handles, true, 1e-9);
+    }
+}
+
+#[test]
+fn local_refinement_changes_only_the_path() {
+    // Local refinement (BbwOptions::local_hops, coupled_local_hops) replaces
+    // most global active-set iterations by iterations on small regions; the
+    // optimality test is the same, so the weights are the same optimum to
+    // the active-set tolerance, with KKT residuals at that tolerance, and
+    // fewer global iterations.
+    let mesh = perturbed_sphere(4, 0.1, 5);
+    let handles = random_handles(mesh.n_vertices(), 6, 5);
+    let bh = Biharmonic::new(&mesh).unwrap();
+    for mode in [WeightMode::PerHandle, WeightMode::Coupled] {
+        let mut plain_opts = BbwOptions::with_mode(mode);
+        plain_opts.local_hops = 0;
+        plain_opts.coupled_local_hops = 0;
+        let plain = bh.weights_with_report(&handles, &plain_opts).unwrap();
+        let local = bh
+            .weights_with_report(&handles, &BbwOptions::with_mode(mode))
+            .unwrap();
+        assert!(plain.converged && local.converged);
+        assert_eq!(plain.local_iterations, 0);
+        assert!(
+            local.local_iterations > 0,
+            "{mode:?}: no local iteration ran"
+        );
+        let global = |r: &deformlab::skin::bbw::BbwReport| -> usize {
+            r.handle_iterations.iter().sum::<usize>() + r.coupled_iterations
+        };
+        assert!(
+            global(&local) < global(&plain),
+            "{mode:?}: {} global iterations with local refinement, {} without",
+            global(&local),
+            global(&plain)
+        );
+        let diff = (&plain.weights - &local.weights).abs().max();
+        assert!(
+            diff < 1e-5,
+            "{mode:?}: local refinement moved the weights by {diff}"
+        );
+        check_common(&local.weights, &handles, true, 1e-9);
+        let r = per_handle_kkt(&bh, local.unnormalized.as_ref().unwrap(), &handles);
+        assert!(r < 1e-7, "{mode:?}: per-handle KKT residual {r}");
+        if mode == WeightMode::Coupled {
+            let r = coupled_kkt(&bh, &local.weights, &handles);
+            assert!(r < 1e-7, "coupled KKT residual {r}");
+        }
     }
 }
 

@@ -129,10 +129,10 @@ proptest! {
     /// densely) and are reported as converged with a small residual.
     #[test]
     fn box_qp_satisfies_kkt(n in 2usize..60, seed in any::<u64>(), scale in 0.1f64..20.0,
-                            warm in any::<bool>()) {
+                            warm in any::<bool>(), hops in 0usize..4) {
         let (a, ad) = random_spd(n, seed);
         let b = random_vec(n, scale, seed);
-        let qp = BoxQp::new(&a).unwrap();
+        let qp = BoxQp::new(&a).unwrap().with_local_hops(hops);
         let x0 = random_vec(n, 2.0, seed ^ 1);
         let s = qp.solve(&b, -0.5, 1.0, if warm { Some(&x0) } else { None }, 200, 1e-10).unwrap();
         prop_assert!(s.converged);
@@ -159,11 +159,11 @@ proptest! {
     /// checked densely.
     #[test]
     fn simplex_rows_satisfy_kkt(n in 2usize..40, m in 1usize..6, seed in any::<u64>(),
-                                scale in 0.1f64..10.0) {
+                                scale in 0.1f64..10.0, hops in 0usize..3) {
         let (a, ad) = random_spd(n, seed);
         let b = DMatrix::from_column_slice(n, m, &random_vec(n * m, scale, seed));
         let x0 = DMatrix::from_element(n, m, 1.0 / m as f64);
-        let s = simplex_rows_qp(&a, &b, &x0, 200, 1e-10).unwrap();
+        let s = simplex_rows_qp(&a, &b, &x0, 200, 1e-10, hops).unwrap();
         prop_assert!(s.converged);
         let g = &ad * &s.x + &b;
         let mut worst = 0.0f64;
@@ -317,7 +317,7 @@ fn active_set_agrees_with_admm() {
                     x
                 }
                 RowConstraint::Simplex => {
-                    let s = simplex_rows_qp(&a, &b, &x0, 200, 1e-12).unwrap();
+                    let s = simplex_rows_qp(&a, &b, &x0, 200, 1e-12, 0).unwrap();
                     assert!(s.converged);
                     s.x
                 }

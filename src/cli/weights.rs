@@ -158,6 +158,10 @@ pub fn run(a: WeightsArgs) -> Result<ExitCode> {
         );
     }
     println!(
+        "local refinement iterations: {} (within {} steps of Q's graph; factorisations of small regions)",
+        report.local_iterations, opts.local_hops
+    );
+    println!(
         "KKT residual {:.2e}, converged {}, numeric factorisations {}",
         report.kkt_residual, report.converged, report.factorizations
     );

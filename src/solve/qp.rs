@@ -43,8 +43,12 @@ enum Bound {
 pub struct BoxQpSolution {
     /// The last iterate clamped to the bounds (exactly within them).
     pub x: Vec<f64>,
-    /// Active-set iterations (= numeric factorisations of a free block) used.
+    /// Global active-set iterations (each one numeric factorisation of the
+    /// whole free block) used.
     pub iterations: usize,
+    /// Iterations of local refinement (see [`BoxQp::with_local_hops`]), each
+    /// a factorisation of the free block inside a small region.
+    pub local_iterations: usize,
     /// Number of variables at a bound at the end.
     pub n_active: usize,
     /// Final active set: `true` for variables fixed at a bound (their values
@@ -84,7 +88,13 @@ pub struct BoxQp {
     a: SparseMatrix,
     diag: Vec<f64>,
     ordered: Ordered,
+    local_hops: usize,
 }
+
+/// Iterations allowed to one local refinement of [`BoxQp::solve`] (see
+/// [`BoxQp::with_local_hops`]); a refinement that has not settled by then
+/// hands its current active set to the next global iteration.
+const LOCAL_MAX_ITER: usize = 100;
 
 /// Checks that `a` is square, finite, has a positive stored diagonal and is
 /// symmetric (pattern and values, to `1e-12` relative); returns the diagonal.
@@ -141,7 +151,34 @@ impl BoxQp {
             a: a.clone(),
             diag,
             ordered: Ordered::new(a)?,
+            local_hops: 0,
         })
+    }
+
+    /// Enables local refinement with `hops` steps of `A`'s graph (0, the
+    /// default of [`BoxQp::new`], turns it off).
+    ///
+    /// Why: a bound is released only where its multiplier `g_i = (A x + b)_i`
+    /// has the wrong sign, and deep inside a region of active bounds `g_i`
+    /// is exactly zero (every `A`-neighbour sits at the bound), so the free
+    /// set can grow by only one step of `A`'s graph per iteration (for the
+    /// bilaplacian of bounded biharmonic weights, two rings of the mesh).
+    /// Where the optimum's free set reaches further, plain iterations creep
+    /// ring by ring, each paying for a factorisation of the whole free block.
+    ///
+    /// What: after every global iteration that changed the active set, the
+    /// same primal–dual iteration runs on the region `R` within `hops` steps
+    /// of the changed variables, with every variable outside `R` frozen at
+    /// its current value (a smaller QP, factorised in the same ordering),
+    /// until its active set settles (at most 100 iterations); its active set
+    /// then seeds the next global iteration. Refinement is skipped when `R`
+    /// holds more than half of the variables. Only the path changes: the
+    /// method still stops only when a *global* iteration leaves the active
+    /// set unchanged, with the same tolerance, so the result satisfies the
+    /// same optimality test as without refinement.
+    pub fn with_local_hops(mut self, hops: usize) -> Self {
+        self.local_hops = hops;
+        self
     }
 
     /// Dimension.
@@ -259,59 +296,49 @@ impl BoxQp {
                 .collect(),
             None => vec![Bound::Free; n],
         };
-        let value = |s: Bound| match s {
-            Bound::Lower => lo,
-            Bound::Upper => hi,
-            Bound::Free => 0.0,
-        };
+        let bounds = (lo, hi, feas_tol);
         let mut x = vec![0.0; n];
-        let mut free = vec![false; n];
         let max_iter = max_iter.max(1);
         let mut converged = false;
         let mut iterations = 0;
-        let mut factorizer = SubsetFactorizer::default();
+        let mut local_iterations = 0;
+        let mut global = SubsetFactorizer::default();
+        let mut local = SubsetFactorizer::default();
+        let mut changed = Vec::new();
+        let mut region = vec![false; n];
         for it in 1..=max_iter {
             iterations = it;
-            // x_A at the bounds; rhs = −b − A_FA x_A on the free block.
-            for i in 0..n {
-                x[i] = value(state[i]);
-                free[i] = state[i] == Bound::Free;
-            }
-            let mut rhs: Vec<f64> = b.iter().map(|v| -v).collect();
-            {
-                let (off, rows, vals) =
-                    (self.a.col_offsets(), self.a.row_indices(), self.a.values());
-                for j in 0..n {
-                    if free[j] || x[j] == 0.0 {
-                        continue;
-                    }
-                    for p in off[j]..off[j + 1] {
-                        rhs[rows[p]] -= vals[p] * x[j];
-                    }
-                }
-            }
-            factorizer.solve(&self.ordered, &free, &rhs, &mut x)?;
-            if x.iter().any(|v| !v.is_finite()) {
-                return Err(Error::numerical(
-                    "box QP: the free-block solve produced non-finite values",
-                ));
-            }
-            let g = self.gradient(&x, b);
-            let mut changed = false;
-            for i in 0..n {
-                let next = match state[i] {
-                    Bound::Free if x[i] < lo - feas_tol => Bound::Lower,
-                    Bound::Free if x[i] > hi + feas_tol => Bound::Upper,
-                    Bound::Lower if g[i] < -feas_tol * self.diag[i] => Bound::Free,
-                    Bound::Upper if g[i] > feas_tol * self.diag[i] => Bound::Free,
-                    s => s,
-                };
-                changed |= next != state[i];
-                state[i] = next;
-            }
-            if !changed {
+            changed.clear();
+            self.pdas_step(
+                b,
+                bounds,
+                &mut state,
+                &mut x,
+                None,
+                &mut global,
+                &mut changed,
+            )?;
+            if changed.is_empty() {
                 converged = true;
                 break;
+            }
+            if self.local_hops > 0 && self.grow_region(&changed, &mut region) {
+                for _ in 0..LOCAL_MAX_ITER {
+                    local_iterations += 1;
+                    changed.clear();
+                    self.pdas_step(
+                        b,
+                        bounds,
+                        &mut state,
+                        &mut x,
+                        Some(&region),
+                        &mut local,
+                        &mut changed,
+                    )?;
+                    if changed.is_empty() {
+                        break;
+                    }
+                }
             }
         }
         for v in &mut x {
@@ -320,12 +347,132 @@ impl BoxQp {
         let kkt_residual = self.kkt_residual(&x, b, lo, hi);
         Ok(BoxQpSolution {
             iterations,
+            local_iterations,
             n_active: state.iter().filter(|&&s| s != Bound::Free).count(),
             at_bound: state.iter().map(|&s| s != Bound::Free).collect(),
             converged,
             kkt_residual,
             x,
         })
+    }
+
+    /// Marks in `region` the variables within `local_hops` steps of
+    /// `seeds` (clearing it first); `false` if that is more than half of
+    /// all variables (then refinement would cost about a global iteration).
+    fn grow_region(&self, seeds: &[usize], region: &mut [bool]) -> bool {
+        let n = self.n();
+        region.fill(false);
+        let (off, rows) = (self.a.col_offsets(), self.a.row_indices());
+        let mut count = 0;
+        let mut front = Vec::with_capacity(seeds.len());
+        for &i in seeds {
+            if !region[i] {
+                region[i] = true;
+                count += 1;
+                front.push(i);
+            }
+        }
+        let mut next = Vec::new();
+        for _ in 0..self.local_hops {
+            next.clear();
+            for &j in &front {
+                for &i in &rows[off[j]..off[j + 1]] {
+                    if !region[i] {
+                        region[i] = true;
+                        count += 1;
+                        next.push(i);
+                    }
+                }
+            }
+            if 2 * count > n {
+                return false;
+            }
+            std::mem::swap(&mut front, &mut next);
+        }
+        2 * count <= n
+    }
+
+    /// One primal–dual active-set iteration. Global (`region = None`): the
+    /// free block is every free variable. Local: only the free variables
+    /// inside `region`; all others keep their current value in `x`. Solves
+    /// for the free block with the fixed variables at their bounds, then
+    /// updates `state` inside the region (see [`BoxQp`]) and appends every
+    /// variable whose state changed to `changed`.
+    #[allow(clippy::too_many_arguments)]
+    fn pdas_step(
+        &self,
+        b: &[f64],
+        (lo, hi, feas_tol): (f64, f64, f64),
+        state: &mut [Bound],
+        x: &mut [f64],
+        region: Option<&[bool]>,
+        factorizer: &mut SubsetFactorizer,
+        changed: &mut Vec<usize>,
+    ) -> Result<()> {
+        let n = self.n();
+        let inside = |i: usize| region.is_none_or(|r| r[i]);
+        let mut free = vec![false; n];
+        for i in 0..n {
+            if !inside(i) {
+                continue;
+            }
+            match state[i] {
+                Bound::Free => free[i] = true,
+                Bound::Lower => x[i] = lo,
+                Bound::Upper => x[i] = hi,
+            }
+        }
+        // rhs_F = −b_F − A_F,fixed x_fixed, row i of A read as column i
+        // (A is symmetric).
+        let (off, rows, vals) = (self.a.col_offsets(), self.a.row_indices(), self.a.values());
+        let mut rhs = vec![0.0; n];
+        for i in 0..n {
+            if !free[i] {
+                continue;
+            }
+            let mut r = -b[i];
+            for p in off[i]..off[i + 1] {
+                let j = rows[p];
+                if !free[j] {
+                    r -= vals[p] * x[j];
+                }
+            }
+            rhs[i] = r;
+        }
+        factorizer.solve(&self.ordered, &free, &rhs, x)?;
+        for i in 0..n {
+            if free[i] && !x[i].is_finite() {
+                return Err(Error::numerical(
+                    "box QP: the free-block solve produced non-finite values",
+                ));
+            }
+        }
+        for i in 0..n {
+            if !inside(i) {
+                continue;
+            }
+            let next = match state[i] {
+                Bound::Free if x[i] < lo - feas_tol => Bound::Lower,
+                Bound::Free if x[i] > hi + feas_tol => Bound::Upper,
+                Bound::Free => Bound::Free,
+                s => {
+                    let mut g = b[i];
+                    for p in off[i]..off[i + 1] {
+                        g += vals[p] * x[rows[p]];
+                    }
+                    match s {
+                        Bound::Lower if g < -feas_tol * self.diag[i] => Bound::Free,
+                        Bound::Upper if g > feas_tol * self.diag[i] => Bound::Free,
+                        s => s,
+                    }
+                }
+            };
+            if next != state[i] {
+                state[i] = next;
+                changed.push(i);
+            }
+        }
+        Ok(())
     }
 }
 
@@ -732,6 +879,9 @@ pub struct SimplexQpSolution {
     pub x: DMatrix<f64>,
     /// Active-set iterations (= sparse factorisations).
     pub iterations: usize,
+    /// Iterations of local refinement (`local_hops`), each a factorisation
+    /// of the reduced system of a small region of rows.
+    pub local_iterations: usize,
     /// Size of the last reduced system.
     pub n_variables: usize,
     /// Whether the supports settled within the iteration limit (if not, `x`
@@ -784,6 +934,209 @@ pub fn simplex_rows_kkt_residual(a: &SparseMatrix, b: &DMatrix<f64>, x: &DMatrix
     r
 }
 
+/// Iterate of [`simplex_rows_qp`]: supports, pivots and the values.
+struct SimplexState {
+    /// `support[i*m + k]`: `k ∈ S_i`.
+    support: Vec<bool>,
+    pivot: Vec<usize>,
+    x: DMatrix<f64>,
+    /// Unknowns of row i: `var_start[i] .. var_start[i] + handles[i].len()`.
+    handles: Vec<Vec<usize>>,
+    var_start: Vec<usize>,
+}
+
+/// Marks in `region` the rows within `hops` steps of `A`'s graph of
+/// `seeds` (clearing it first); `false` if that is more than half of them.
+fn grow_region(a: &SparseMatrix, hops: usize, seeds: &[usize], region: &mut [bool]) -> bool {
+    let n = a.nrows();
+    region.fill(false);
+    let (off, rows) = (a.col_offsets(), a.row_indices());
+    let mut count = 0;
+    let mut front = Vec::with_capacity(seeds.len());
+    for &i in seeds {
+        if !region[i] {
+            region[i] = true;
+            count += 1;
+            front.push(i);
+        }
+    }
+    let mut next = Vec::new();
+    for _ in 0..hops {
+        next.clear();
+        for &j in &front {
+            for &i in &rows[off[j]..off[j + 1]] {
+                if !region[i] {
+                    region[i] = true;
+                    count += 1;
+                    next.push(i);
+                }
+            }
+        }
+        if 2 * count > n {
+            return false;
+        }
+        std::mem::swap(&mut front, &mut next);
+    }
+    2 * count <= n
+}
+
+/// One support iteration of [`simplex_rows_qp`]: global (`region = None`)
+/// or on the rows inside `region` with every other row frozen at its
+/// current values. Solves the reduced system for the current supports,
+/// updates the supports of the rows concerned and appends every row whose
+/// support changed to `changed`. Returns the number of unknowns.
+#[allow(clippy::too_many_arguments)]
+fn simplex_step(
+    a: &SparseMatrix,
+    b: &DMatrix<f64>,
+    ordered: &Ordered,
+    diag: &[f64],
+    tol: f64,
+    st: &mut SimplexState,
+    region: Option<&[bool]>,
+    changed: &mut Vec<usize>,
+) -> Result<usize> {
+    let n = a.nrows();
+    let m = b.ncols();
+    let inside = |i: usize| region.is_none_or(|r| r[i]);
+    let (off, rows, vals) = (a.col_offsets(), a.row_indices(), a.values());
+    let u = &ordered.upper;
+    let SimplexState {
+        support,
+        pivot,
+        x,
+        handles,
+        var_start,
+    } = st;
+    let mut nv = 0;
+    for &i in &ordered.order {
+        if !inside(i) {
+            handles[i].clear();
+            continue;
+        }
+        if pivot[i] == usize::MAX || !support[i * m + pivot[i]] {
+            pivot[i] = (0..m)
+                .filter(|&k| support[i * m + k])
+                .max_by(|&p, &q| x[(i, p)].total_cmp(&x[(i, q)]).then(q.cmp(&p)))
+                .unwrap_or(0);
+        }
+        let hs = &mut handles[i];
+        hs.clear();
+        hs.extend((0..m).filter(|&k| k != pivot[i] && support[i * m + k]));
+        var_start[i] = nv;
+        nv += hs.len();
+    }
+    // Rows inside: the pivot indicator C; outside: frozen values.
+    for i in 0..n {
+        if inside(i) {
+            for k in 0..m {
+                x[(i, k)] = 0.0;
+            }
+            x[(i, pivot[i])] = 1.0;
+        }
+    }
+    if nv > 0 {
+        // rhs = −(G0_ik − G0_ip) with G0 = A X + B at this X (rows inside
+        // only; A symmetric, so row i is read as column i).
+        let mut g0row = vec![0.0; m];
+        let mut rhs = vec![0.0; nv];
+        for i in 0..n {
+            if handles[i].is_empty() {
+                continue;
+            }
+            for k in 0..m {
+                g0row[k] = b[(i, k)];
+            }
+            for p in off[i]..off[i + 1] {
+                let j = rows[p];
+                for k in 0..m {
+                    g0row[k] += vals[p] * x[(j, k)];
+                }
+            }
+            for (t, &k) in handles[i].iter().enumerate() {
+                rhs[var_start[i] + t] = -(g0row[k] - g0row[pivot[i]]);
+            }
+        }
+        // Upper triangle, column (j, l): rows (i, k) for neighbours i
+        // earlier in the order, and (j, k ≤ l).
+        let mut h = UpperCsc::with_capacity(nv, 0);
+        for (pj, &j) in ordered.order.iter().enumerate() {
+            let pvj = pivot[j];
+            for (tl, &l) in handles[j].iter().enumerate() {
+                for e in u.col_ptr[pj]..u.col_ptr[pj + 1] {
+                    let i = ordered.order[u.row_idx[e]];
+                    let aij = u.values[e];
+                    let pvi = pivot[i];
+                    let hi_ = &handles[i];
+                    let last = if i == j { tl + 1 } else { hi_.len() };
+                    for (tk, &k) in hi_[..last].iter().enumerate() {
+                        let c = (k == l) as i32 - (k == pvj) as i32 - (pvi == l) as i32
+                            + (pvi == pvj) as i32;
+                        if c != 0 {
+                            h.push(var_start[i] + tk, aij * c as f64);
+                        }
+                    }
+                }
+                h.end_column();
+            }
+        }
+        let fac = OrderedCholesky::factorize(&h)?;
+        fac.solve_in_place(&mut rhs, 1);
+        if rhs.iter().any(|v| !v.is_finite()) {
+            return Err(Error::numerical(
+                "simplex-rows QP: the reduced solve produced non-finite values",
+            ));
+        }
+        for i in 0..n {
+            for (t, &k) in handles[i].iter().enumerate() {
+                let v = rhs[var_start[i] + t];
+                x[(i, k)] = v;
+                x[(i, pivot[i])] -= v;
+            }
+        }
+    }
+    // Gradient and support update (rows inside).
+    let mut g = vec![0.0; m];
+    for i in 0..n {
+        if !inside(i) {
+            continue;
+        }
+        for k in 0..m {
+            g[k] = b[(i, k)];
+        }
+        for p in off[i]..off[i + 1] {
+            let j = rows[p];
+            for k in 0..m {
+                g[k] += vals[p] * x[(j, k)];
+            }
+        }
+        let gp = g[pivot[i]];
+        let mut row_changed = false;
+        for k in 0..m {
+            let s = &mut support[i * m + k];
+            if *s && x[(i, k)] < -tol {
+                *s = false;
+                row_changed = true;
+            } else if !*s && g[k] - gp < -tol * diag[i] {
+                *s = true;
+                row_changed = true;
+            }
+        }
+        if !(0..m).any(|k| support[i * m + k]) {
+            // Every support entry was negative (cannot happen for a row
+            // summing to one); keep the largest.
+            let k = (0..m)
+                .max_by(|&p, &q| x[(i, p)].total_cmp(&x[(i, q)]).then(q.cmp(&p)))
+                .unwrap_or(0);
+            support[i * m + k] = true;
+        }
+        if row_changed {
+            changed.push(i);
+        }
+    }
+    Ok(nv)
+}
+
 /// `min Σ_k ½ x_kᵀA x_k + b_kᵀx_k` over `X` (n × m) with every row on the
 /// probability simplex (`X ≥ 0`, rows sum to one), `A` sparse symmetric
 /// positive definite, by a primal–dual active-set method on the row
@@ -812,6 +1165,7 @@ pub fn simplex_rows_qp(
     x0: &DMatrix<f64>,
     max_iter: usize,
     tol: f64,
+    local_hops: usize,
 ) -> Result<SimplexQpSolution> {
     let n = a.nrows();
     let m = b.ncols();
@@ -845,18 +1199,21 @@ pub fn simplex_rows_qp(
             support[i * m + k] = true;
         }
     }
-    let (off, rows, vals) = (a.col_offsets(), a.row_indices(), a.values());
-    let u = &ordered.upper;
     // Pivot of each row: its largest support entry (first x0, then the
     // last iterate); kept while it stays in the support.
-    let mut x = x0.clone();
+    let mut st = SimplexState {
+        support,
+        pivot: vec![usize::MAX; n],
+        x: x0.clone(),
+        handles: vec![Vec::new(); n],
+        var_start: vec![0usize; n],
+    };
     let mut nv = 0;
     let mut converged = false;
     let mut iterations = 0;
-    let mut pivot = vec![usize::MAX; n];
-    // Unknowns of row i: var_start[i] .. var_start[i] + handles[i].len().
-    let mut var_start = vec![0usize; n];
-    let mut handles: Vec<Vec<usize>> = vec![Vec::new(); n];
+    let mut changed = Vec::new();
+    let mut region = vec![false; n];
+    let mut local_iterations = 0;
     for it in 1..=max_iter.max(1) {
         iterations = it;
         super::progress::update(
@@ -864,105 +1221,33 @@ pub fn simplex_rows_qp(
             it,
             0,
         );
-        nv = 0;
-        for &i in &ordered.order {
-            if pivot[i] == usize::MAX || !support[i * m + pivot[i]] {
-                pivot[i] = (0..m)
-                    .filter(|&k| support[i * m + k])
-                    .max_by(|&p, &q| x[(i, p)].total_cmp(&x[(i, q)]).then(q.cmp(&p)))
-                    .unwrap_or(0);
-            }
-            let hs = &mut handles[i];
-            hs.clear();
-            hs.extend((0..m).filter(|&k| k != pivot[i] && support[i * m + k]));
-            var_start[i] = nv;
-            nv += hs.len();
-        }
-        // G0 = A C + B with C the pivot indicator.
-        let mut g0 = b.clone();
-        for j in 0..n {
-            for p in off[j]..off[j + 1] {
-                g0[(rows[p], pivot[j])] += vals[p];
-            }
-        }
-        x.fill(0.0);
-        for i in 0..n {
-            x[(i, pivot[i])] = 1.0;
-        }
-        if nv > 0 {
-            let mut rhs = vec![0.0; nv];
-            for i in 0..n {
-                for (t, &k) in handles[i].iter().enumerate() {
-                    rhs[var_start[i] + t] = -(g0[(i, k)] - g0[(i, pivot[i])]);
-                }
-            }
-            // Upper triangle, column (j, l): rows (i, k) for neighbours i
-            // earlier in the order, and (j, k ≤ l).
-            let mut h = UpperCsc::with_capacity(nv, 0);
-            for (pj, &j) in ordered.order.iter().enumerate() {
-                let pvj = pivot[j];
-                for (tl, &l) in handles[j].iter().enumerate() {
-                    for e in u.col_ptr[pj]..u.col_ptr[pj + 1] {
-                        let i = ordered.order[u.row_idx[e]];
-                        let aij = u.values[e];
-                        let pvi = pivot[i];
-                        let hi_ = &handles[i];
-                        let last = if i == j { tl + 1 } else { hi_.len() };
-                        for (tk, &k) in hi_[..last].iter().enumerate() {
-                            let c = (k == l) as i32 - (k == pvj) as i32 - (pvi == l) as i32
-                                + (pvi == pvj) as i32;
-                            if c != 0 {
-                                h.push(var_start[i] + tk, aij * c as f64);
-                            }
-                        }
-                    }
-                    h.end_column();
-                }
-            }
-            let fac = OrderedCholesky::factorize(&h)?;
-            fac.solve_in_place(&mut rhs, 1);
-            if rhs.iter().any(|v| !v.is_finite()) {
-                return Err(Error::numerical(
-                    "simplex-rows QP: the reduced solve produced non-finite values",
-                ));
-            }
-            for i in 0..n {
-                for (t, &k) in handles[i].iter().enumerate() {
-                    let v = rhs[var_start[i] + t];
-                    x[(i, k)] = v;
-                    x[(i, pivot[i])] -= v;
-                }
-            }
-        }
-        // Gradient and support update.
-        let g = gradient_matrix(a, &x, b);
-        let mut changed = false;
-        for i in 0..n {
-            let gp = g[(i, pivot[i])];
-            for k in 0..m {
-                let s = &mut support[i * m + k];
-                if *s && x[(i, k)] < -tol {
-                    *s = false;
-                    changed = true;
-                } else if !*s && g[(i, k)] - gp < -tol * diag[i] {
-                    *s = true;
-                    changed = true;
-                }
-            }
-            if !(0..m).any(|k| support[i * m + k]) {
-                // Every support entry was negative (cannot happen for a row
-                // summing to one); keep the largest.
-                let k = (0..m)
-                    .max_by(|&p, &q| x[(i, p)].total_cmp(&x[(i, q)]).then(q.cmp(&p)))
-                    .unwrap_or(0);
-                support[i * m + k] = true;
-            }
-        }
-        if !changed {
+        changed.clear();
+        nv = simplex_step(a, b, &ordered, &diag, tol, &mut st, None, &mut changed)?;
+        if changed.is_empty() {
             converged = true;
             break;
         }
+        if local_hops > 0 && grow_region(a, local_hops, &changed, &mut region) {
+            for _ in 0..LOCAL_MAX_ITER {
+                local_iterations += 1;
+                changed.clear();
+                simplex_step(
+                    a,
+                    b,
+                    &ordered,
+                    &diag,
+                    tol,
+                    &mut st,
+                    Some(&region),
+                    &mut changed,
+                )?;
+                if changed.is_empty() {
+                    break;
+                }
+            }
+        }
     }
+    let mut x = st.x;
     let mut row = vec![0.0; m];
     for i in 0..n {
         if converged {
@@ -989,6 +1274,7 @@ pub fn simplex_rows_qp(
     Ok(SimplexQpSolution {
         x,
         iterations,
+        local_iterations,
         n_variables: nv,
         converged,
         kkt_residual,
