@@ -201,7 +201,7 @@ pub struct BbwOptions {
     /// [`crate::solve::qp::BoxQp::with_local_hops`]). 0 turns it off. Only
     /// the path to the optimum changes, not the optimality test. Measured
     /// on one thread (6 FPS handles, PerHandle active-set iterations
-    /// summed over handles): FAUST 6.9k 132 → 34 with 2 and 28 with 4;
+    /// summed over handles): FAUST 6.9k 132 → 38 with 2 and 27 with 4;
     /// synthetic 27k 282 → 66 with 2 and 42 with 4 (13.4 → 3.1 s).
     pub local_hops: usize,
     /// [`BbwOptions::local_hops`] for the support iteration of Coupled
