@@ -254,6 +254,19 @@ fn help_prints_the_library_defaults() {
         assert!(weights.contains(&s), "weights --help lacks {s}:\n{weights}");
     }
     assert!(!weights.contains("library's, 200]"), "{weights}");
+    // Each local refinement option's own help names its own default.
+    for (flag, want) in [
+        ("--local-hops", b.local_hops),
+        ("--coupled-local-hops", b.coupled_local_hops),
+    ] {
+        let at = weights
+            .find(&format!("{flag} <"))
+            .unwrap_or_else(|| panic!("weights --help lacks {flag}:\n{weights}"));
+        let rest = &weights[at + flag.len()..];
+        let own = &rest[..rest.find("\n      --").unwrap_or(rest.len())];
+        let s = format!("[default: the library's, {want}]");
+        assert!(own.contains(&s), "{flag}'s help lacks {s}:\n{own}");
+    }
     // transfer: the selection options as keypoints, and where the
     // transforms act on B (its help said "direct" while the default is the
     // unit sphere).

@@ -39,7 +39,7 @@ pub struct WeightsArgs {
     /// Handle vertices (0-based, comma-separated) instead of sampling.
     #[arg(long, value_delimiter = ',')]
     pub handle_vertices: Option<Vec<usize>>,
-    /// Seed of the first farthest-point sample [default: 0].
+    /// Seed of the first farthest-point sample.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Help text (with the library's default) in `help` below.
@@ -52,6 +52,17 @@ pub struct WeightsArgs {
     #[arg(long, value_parser = MaxIter::parse, help = super::keypoints::default_help(
         "Active-set iterations allowed, 1..=100000", BbwOptions::default().max_iter))]
     pub max_iter: Option<usize>,
+    /// Help text (with the library's default) in `help` below.
+    #[arg(long, value_parser = Hops::parse, help = super::keypoints::default_help(
+        "Local refinement of the per-handle active sets: steps of Q's graph around the \
+         changed vertices, 0..=64 (0 = off; the result passes the same optimality test)",
+        BbwOptions::default().local_hops))]
+    pub local_hops: Option<usize>,
+    /// Help text (with the library's default) in `help` below.
+    #[arg(long, value_parser = Hops::parse, help = super::keypoints::default_help(
+        "Local refinement of the coupled support iteration, 0..=64 (0 = off)",
+        BbwOptions::default().coupled_local_hops))]
+    pub coupled_local_hops: Option<usize>,
     /// Write the weights (n × handles) as CSV.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -68,6 +79,7 @@ pub struct WeightsArgs {
 
 type Handles = deformlab::experiment::range::Int<1, 1000>;
 type MaxIter = deformlab::experiment::range::Int<1, 100_000>;
+type Hops = deformlab::experiment::range::Int<0, 64>;
 
 /// Handles sampled when neither `--handles` nor `--handle-vertices` is given.
 pub const DEFAULT_HANDLES: usize = 10;
@@ -112,6 +124,8 @@ pub fn run(a: WeightsArgs) -> Result<ExitCode> {
     let opts = BbwOptions {
         mode: a.mode.unwrap_or(d.mode),
         max_iter: a.max_iter.unwrap_or(d.max_iter),
+        local_hops: a.local_hops.unwrap_or(d.local_hops),
+        coupled_local_hops: a.coupled_local_hops.unwrap_or(d.coupled_local_hops),
         ..d
     };
     let progress = super::progress::on_terminal();
