@@ -286,9 +286,10 @@ class Bench:
                     self.skip(f"bbw {label}", f"{mesh} not found")
                     continue
                 if label == "108k":
-                    self.skip("bbw 108k", "not run (time): per-handle needs 429 active-set iterations at 107.5k "
-                              "vertices and coupled took 2229 s CPU there (README); igl.bbw was not tried at this "
-                              "size (its default max_iter is 100). The exponent is fitted on the smaller sizes")
+                    self.skip("bbw 108k", "not run (time): coupled took 2229 s CPU at 107.5k vertices before "
+                              "local refinement (README; per-handle needed 429 active-set iterations then); igl.bbw "
+                              "was not tried at this size (its default max_iter is 100). The exponent is fitted on "
+                              "the smaller sizes")
                     continue
                 h = self.measure({"task": "fps", "mesh": str(mesh), "k": HANDLES})["handles"]
                 sides = ["coupled", "per-handle"] + (["igl"] if have_igl else [])
