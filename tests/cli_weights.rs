@@ -74,6 +74,56 @@ fn cli_weights_equal_the_library_and_meet_eq1() {
     // weights are exactly zero (an unbounded solution would be negative).
     assert!(w.iter().flatten().any(|&x| x == 0.0));
 
+    // Local refinement off: the library's weights with local_hops = 0 (to
+    // the last bit), no local iteration reported, and weights within the
+    // active-set tolerance of the default (refined) ones.
+    let off_csv = dir.path().join("w_off.csv");
+    let out = deformlab()
+        .arg("weights")
+        .arg(&path)
+        .args(["--handle-vertices", "0,200,400,600"])
+        .args(["--local-hops", "0", "--coupled-local-hops", "0", "--out"])
+        .arg(&off_csv)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("local refinement iterations: 0 (regions within 0 / 0 steps"),
+        "{stdout}"
+    );
+    let off = read_csv(&off_csv);
+    let lib_off = Biharmonic::new(&mesh)
+        .unwrap()
+        .weights(
+            &handles,
+            &BbwOptions {
+                local_hops: 0,
+                coupled_local_hops: 0,
+                ..BbwOptions::default()
+            },
+        )
+        .unwrap();
+    let (mut to_lib, mut to_refined) = (0.0f64, 0.0f64);
+    for (i, row) in off.iter().enumerate() {
+        for (k, &x) in row.iter().enumerate() {
+            to_lib = to_lib.max((x - lib_off[(i, k)]).abs());
+            to_refined = to_refined.max((x - w[i][k]).abs());
+        }
+    }
+    assert!(
+        to_lib < 1e-15,
+        "CLI and library differ by {to_lib} without refinement"
+    );
+    assert!(
+        to_refined < 1e-5,
+        "refinement moved the weights by {to_refined}"
+    );
+
     // The same file again: refused without --force.
     let out = deformlab()
         .arg("weights")

@@ -172,8 +172,8 @@ pub fn run(a: WeightsArgs) -> Result<ExitCode> {
         );
     }
     println!(
-        "local refinement iterations: {} (within {} steps of Q's graph; factorisations of small regions)",
-        report.local_iterations, opts.local_hops
+        "local refinement iterations: {} (regions within {} / {} steps of Q's graph for the per-handle / coupled iterations)",
+        report.local_iterations, opts.local_hops, opts.coupled_local_hops
     );
     println!(
         "KKT residual {:.2e}, converged {}, numeric factorisations {}",

@@ -210,7 +210,9 @@ pub struct BbwOptions {
     pub local_hops: usize,
     /// [`BbwOptions::local_hops`] for the support iteration of Coupled
     /// (its regions hold several unknowns per vertex, so a local iteration
-    /// costs more there and fewer steps pay off).
+    /// costs more there and fewer steps pay off). Measured on FAUST, 6 FPS
+    /// handles, one thread: support iterations 75 → 33 / 21 / 12 with 1 /
+    /// 2 / 4, whole solve about 10 s → 6–7 / 7.4 / 10.7 s.
     pub coupled_local_hops: usize,
 }
 
@@ -251,8 +253,9 @@ pub struct BbwReport {
     pub weights: DMatrix<f64>,
     /// Numeric factorisations done.
     pub factorizations: usize,
-    /// Active-set iterations: summed over handles (PerHandle); that plus
-    /// the coupled support iterations (Coupled); 0 for Unbounded.
+    /// Global active-set iterations (each over the whole mesh): summed over
+    /// handles (PerHandle); that plus the coupled support iterations
+    /// (Coupled); 0 for Unbounded.
     pub iterations: usize,
     /// Iterations of local refinement ([`BbwOptions::local_hops`]), each a
     /// factorisation on a small region, summed over all solves (not in

@@ -313,7 +313,7 @@ impl BoxQp {
                 converged = true;
                 break;
             }
-            if self.local_hops > 0 && self.grow_region(&changed, &mut region) {
+            if self.local_hops > 0 && grow_region(&self.a, self.local_hops, &changed, &mut region) {
                 local_iterations += self.refine_region(b, bounds, &mut state, &mut x, &region)?;
             }
         }
@@ -403,42 +403,6 @@ impl BoxQp {
             };
         }
         Ok(s.iterations)
-    }
-
-    /// Marks in `region` the variables within `local_hops` steps of
-    /// `seeds` (clearing it first); `false` if that is more than half of
-    /// all variables (then refinement would cost about a global iteration).
-    fn grow_region(&self, seeds: &[usize], region: &mut [bool]) -> bool {
-        let n = self.n();
-        region.fill(false);
-        let (off, rows) = (self.a.col_offsets(), self.a.row_indices());
-        let mut count = 0;
-        let mut front = Vec::with_capacity(seeds.len());
-        for &i in seeds {
-            if !region[i] {
-                region[i] = true;
-                count += 1;
-                front.push(i);
-            }
-        }
-        let mut next = Vec::new();
-        for _ in 0..self.local_hops {
-            next.clear();
-            for &j in &front {
-                for &i in &rows[off[j]..off[j + 1]] {
-                    if !region[i] {
-                        region[i] = true;
-                        count += 1;
-                        next.push(i);
-                    }
-                }
-            }
-            if 2 * count > n {
-                return false;
-            }
-            std::mem::swap(&mut front, &mut next);
-        }
-        2 * count <= n
     }
 
     /// One primal–dual active-set iteration: solves for the free block
@@ -915,7 +879,8 @@ impl RowAdmm {
 pub struct SimplexQpSolution {
     /// The minimiser (every row exactly on the simplex).
     pub x: DMatrix<f64>,
-    /// Active-set iterations (= sparse factorisations).
+    /// Global support iterations (each a factorisation of the whole
+    /// reduced system).
     pub iterations: usize,
     /// Iterations of local refinement (`local_hops`), each a factorisation
     /// of the reduced system of a small region of rows.
@@ -983,8 +948,9 @@ struct SimplexState {
     var_start: Vec<usize>,
 }
 
-/// Marks in `region` the rows within `hops` steps of `A`'s graph of
-/// `seeds` (clearing it first); `false` if that is more than half of them.
+/// Marks in `region` the variables (rows) within `hops` steps of `A`'s
+/// graph of `seeds` (clearing it first); `false` if that is more than half
+/// of all (local refinement would then cost about a global iteration).
 fn grow_region(a: &SparseMatrix, hops: usize, seeds: &[usize], region: &mut [bool]) -> bool {
     let n = a.nrows();
     region.fill(false);
