@@ -25,19 +25,26 @@ fn cli_weights_equal_the_library_and_meet_eq1() {
     write_mesh(&path, &mesh).unwrap();
     let handles = [0usize, 200, 400, 600];
     let csv = dir.path().join("w.csv");
-    let out = deformlab()
-        .arg("weights")
-        .arg(&path)
-        .args(["--handle-vertices", "0,200,400,600", "--out"])
-        .arg(&csv)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    // `deformlab weights sphere.ply --handle-vertices … [extra] --out csv`;
+    // its stdout, after checking it succeeded.
+    let run = |extra: &[&str], csv: &std::path::Path| -> String {
+        let out = deformlab()
+            .arg("weights")
+            .arg(&path)
+            .args(["--handle-vertices", "0,200,400,600"])
+            .args(extra)
+            .arg("--out")
+            .arg(csv)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let stdout = run(&[], &csv);
     assert!(stdout.contains("mode: Coupled"), "{stdout}");
     assert!(stdout.contains("converged true"), "{stdout}");
     let w = read_csv(&csv);
@@ -78,19 +85,9 @@ fn cli_weights_equal_the_library_and_meet_eq1() {
     // the last bit), no local iteration reported, and weights within the
     // active-set tolerance of the default (refined) ones.
     let off_csv = dir.path().join("w_off.csv");
-    let out = deformlab()
-        .arg("weights")
-        .arg(&path)
-        .args(["--handle-vertices", "0,200,400,600"])
-        .args(["--local-hops", "0", "--coupled-local-hops", "0", "--out"])
-        .arg(&off_csv)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let stdout = run(
+        &["--local-hops", "0", "--coupled-local-hops", "0"],
+        &off_csv,
     );
     assert!(
         stdout.contains("local refinement iterations: 0 (regions within 0 / 0 steps"),

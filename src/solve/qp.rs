@@ -984,6 +984,21 @@ fn grow_region(a: &SparseMatrix, hops: usize, seeds: &[usize], region: &mut [boo
     2 * count <= n
 }
 
+/// Row `i` of `G = A X + B` into `g` (`A` symmetric: row `i` read as
+/// column `i`).
+fn gradient_row(a: &SparseMatrix, b: &DMatrix<f64>, x: &DMatrix<f64>, i: usize, g: &mut [f64]) {
+    let (off, rows, vals) = (a.col_offsets(), a.row_indices(), a.values());
+    for (k, gk) in g.iter_mut().enumerate() {
+        *gk = b[(i, k)];
+    }
+    for p in off[i]..off[i + 1] {
+        let j = rows[p];
+        for (k, gk) in g.iter_mut().enumerate() {
+            *gk += vals[p] * x[(j, k)];
+        }
+    }
+}
+
 /// One support iteration of [`simplex_rows_qp`]: global (`region = None`)
 /// or on the rows inside `region` with every other row frozen at its
 /// current values. Solves the reduced system for the current supports,
@@ -1003,7 +1018,6 @@ fn simplex_step(
     let n = a.nrows();
     let m = b.ncols();
     let inside = |i: usize| region.is_none_or(|r| r[i]);
-    let (off, rows, vals) = (a.col_offsets(), a.row_indices(), a.values());
     let u = &ordered.upper;
     let SimplexState {
         support,
@@ -1048,15 +1062,7 @@ fn simplex_step(
             if handles[i].is_empty() {
                 continue;
             }
-            for k in 0..m {
-                g0row[k] = b[(i, k)];
-            }
-            for p in off[i]..off[i + 1] {
-                let j = rows[p];
-                for k in 0..m {
-                    g0row[k] += vals[p] * x[(j, k)];
-                }
-            }
+            gradient_row(a, b, x, i, &mut g0row);
             for (t, &k) in handles[i].iter().enumerate() {
                 rhs[var_start[i] + t] = -(g0row[k] - g0row[pivot[i]]);
             }
@@ -1105,15 +1111,7 @@ fn simplex_step(
         if !inside(i) {
             continue;
         }
-        for k in 0..m {
-            g[k] = b[(i, k)];
-        }
-        for p in off[i]..off[i + 1] {
-            let j = rows[p];
-            for k in 0..m {
-                g[k] += vals[p] * x[(j, k)];
-            }
-        }
+        gradient_row(a, b, x, i, &mut g);
         let gp = g[pivot[i]];
         let mut row_changed = false;
         for k in 0..m {
