@@ -334,7 +334,17 @@ mod stage_two {
                 prop_assert!(s.error <= prev, "stage 2 increased {} → {}", prev, s.error);
                 prev = s.error;
             }
-            prop_assert!(sel.error <= s1_end * (1.0 + 1e-12));
+            // The returned error is the final fit's, recomputed from a cold
+            // active-set start, while the trace holds the warm-started
+            // evaluations of the same set: both are the bounded-weight
+            // optimum to the active-set tolerance (seen up to 1.5e-10
+            // relative apart; CI found seed 488, n_c 8 at 8e-12).
+            let last = sel.trace.last().unwrap().error;
+            prop_assert!(
+                (sel.error - last).abs() <= 1e-7 * last,
+                "final fit {} vs last trace error {}", sel.error, last
+            );
+            prop_assert!(sel.error <= s1_end * (1.0 + 1e-7));
         }
     }
 }
