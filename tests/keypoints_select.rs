@@ -367,10 +367,26 @@ fn fast_mode_fits_and_transfers_with_bounded_weights() {
         ..fast.clone()
     };
     let fit = fit_keypoints(&a, &d, &sel.keypoints, &exact).unwrap();
-    assert_eq!(sel.error, fit.error);
-    assert_eq!(sel.transforms, fit.transforms);
+    // The selection's final fit starts its bounded weights from its own
+    // active sets, fit_keypoints from scratch: the same fit to the
+    // active-set tolerance.
+    let rel = |x: f64, y: f64| (x - y).abs() / y.abs();
+    assert!(
+        rel(sel.error, fit.error) < 1e-8,
+        "{} vs {}",
+        sel.error,
+        fit.error
+    );
+    let mut dt = 0.0f64;
+    for (ts, tf) in sel.transforms.iter().zip(&fit.transforms) {
+        assert_eq!(ts.len(), tf.len());
+        for (a, b) in ts.iter().zip(tf) {
+            dt = dt.max((a - b).amax());
+        }
+    }
+    assert!(dt < 1e-6, "transforms differ by {dt}");
     // Every traced error is an exact one (the last is the final fit's).
-    assert_eq!(sel.trace.last().unwrap().error, fit.error);
+    assert!(rel(sel.trace.last().unwrap().error, fit.error) < 1e-8);
     // fit_keypoints does not depend on the mode.
     let fit_fast = fit_keypoints(&a, &d, &sel.keypoints, &fast).unwrap();
     assert_eq!(fit_fast.transforms, fit.transforms);

@@ -259,8 +259,9 @@ pub struct KeypointOptions {
     /// written (config key `weights = "coupled"`, CLI `--weights coupled`).
     /// Measured: the two weights differ little (`tests/weights_modes.rs`:
     /// mean per-vertex total variation 0.003–0.012, fit errors of the same
-    /// key points within 2.6 %), coupled costs 2.2–8.7× more on FAUST
-    /// (1.8–8.9 s against 0.7–1.0 s for 4–6 key points, one thread), and on
+    /// key points within 2.6 %), coupled costs 2.9–16× more on FAUST
+    /// (1.3 / 5.6 s against 0.44 / 0.35 s for 4 / 6 FPS handles, one thread,
+    /// `deformlab weights`, 2026-12-03), and on
     /// the synthetic Fig. 14 cases the coupled pipeline (selection, fit and
     /// target) transferred worse (mean error 0.0297 against 0.0267 √area;
     /// `automatic-coupled` in `experiments/fig14.toml`). Ranking with one and
@@ -508,8 +509,20 @@ pub fn select_keypoints(
     }
 
     // The final fit is the exact one in both modes (fast mode differs only
-    // in which trial sets were evaluated exactly).
-    let fit = ctx.fit(&set, None)?;
+    // in which trial sets were evaluated exactly). Its bounded weights start
+    // from the active sets this selection ended with for the same set, so
+    // the solves confirm them in about one iteration instead of starting
+    // over (synthetic 27k: 2.97 → 0.36 s); the weights equal those of a
+    // start from scratch ([`fit_keypoints`]) to the active-set tolerance.
+    let own = sel
+        .base
+        .as_ref()
+        .filter(|(h, _)| *h == set)
+        .map(|(h, w)| ActiveSetStart {
+            handles: h,
+            unnormalized: w,
+        });
+    let fit = ctx.fit(&set, None, own.as_ref())?;
     let (evaluations, failed_evaluations) = (sel.evaluations + 1, sel.failed);
     let repeated_trials = sel.cached;
     Ok(KeypointSelection {
@@ -561,7 +574,7 @@ pub fn fit_keypoints(
     let ctx = Context::new(source, deformed, opts)?;
     // Both modes fit with bounded biharmonic weights (fast mode only screens
     // candidates cheaply during a selection).
-    ctx.fit(keypoints, None)
+    ctx.fit(keypoints, None, None)
 }
 
 fn check_inputs(source: &Mesh, deformed: &[Mesh], opts: &KeypointOptions) -> Result<()> {
@@ -782,8 +795,13 @@ impl<'a> Context<'a> {
     }
 
     /// The final fit of a set, converted back to the original frame.
-    fn fit(&self, set: &[usize], fast: Option<&GreenBasis>) -> Result<KeypointFit> {
-        let e = self.evaluate(set, fast, true, None)?;
+    fn fit(
+        &self,
+        set: &[usize],
+        fast: Option<&GreenBasis>,
+        start: Option<&ActiveSetStart>,
+    ) -> Result<KeypointFit> {
+        let e = self.evaluate(set, fast, true, start)?;
         let transforms = e
             .stacked
             .iter()
@@ -865,8 +883,9 @@ fn seeded_subsample(n: usize, k: usize, seed: u64) -> Vec<usize> {
 /// sets change only near it. The weights are the same to the active-set
 /// tolerance (measured: within 3e-7 on the 27k-vertex synthetic subject),
 /// not bitwise; the start is the same for every trial of a step, so the
-/// result does not depend on the thread count. The final fit is computed
-/// from scratch (the same as [`fit_keypoints`] of the selected set).
+/// result does not depend on the thread count. The final fit starts from
+/// the selected set's own active sets (the same as [`fit_keypoints`] of the
+/// selected set, which starts from scratch, to the active-set tolerance).
 struct Selector<'c, 'a> {
     ctx: &'c Context<'a>,
     fast: Option<&'c GreenBasis>,
