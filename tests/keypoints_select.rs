@@ -334,17 +334,19 @@ mod stage_two {
                 prop_assert!(s.error <= prev, "stage 2 increased {} → {}", prev, s.error);
                 prev = s.error;
             }
-            // The returned error is the final fit's, recomputed from a cold
-            // active-set start, while the trace holds the warm-started
-            // evaluations of the same set: both are the bounded-weight
-            // optimum to the active-set tolerance (seen up to 1.5e-10
-            // relative apart; CI found seed 488, n_c 8 at 8e-12).
+            // The returned error is the final fit's, whose bounded weights
+            // are solved again (from the set's own active sets when the
+            // selection kept them, else from another set's): the same
+            // optimum as the traced evaluation to the active-set
+            // tolerance, not bitwise (CI found seed 488, n_c 8 at 8e-12
+            // relative with a cold final fit; cold and warm fits differ by
+            // up to 1.4e-6 relative in the default suite).
             let last = sel.trace.last().unwrap().error;
             prop_assert!(
-                (sel.error - last).abs() <= 1e-7 * last,
+                (sel.error - last).abs() <= 1e-5 * last,
                 "final fit {} vs last trace error {}", sel.error, last
             );
-            prop_assert!(sel.error <= s1_end * (1.0 + 1e-7));
+            prop_assert!(sel.error <= s1_end * (1.0 + 1e-5));
         }
     }
 }
