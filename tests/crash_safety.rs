@@ -192,6 +192,7 @@ fn sigkill_at_20_random_moments_loses_nothing() {
     let mut interrupted = 0;
     let mut progress = Vec::new();
     let mut in_round = 0;
+    let mut stalled = 0u32;
     let total = (EXPERIMENTS.len() * N_RESULTS) as f64;
     // The run's duration as the kills see it: the reference run's, lowered
     // whenever a killed run had already finished (the reference may have
@@ -207,7 +208,13 @@ fn sigkill_at_20_random_moments_loses_nothing() {
         }
         attempts += 1;
         let missing = 1.0 - in_round as f64 / total;
-        let window = t_noop + t_run * (0.25 + 0.6 * missing);
+        // After kills that stored nothing new, the window widens (× 1.5 per
+        // such kill, at most to the whole run): the next result may need
+        // more than the floor when it is one of the longer cases (seen on
+        // an idle machine with t_ref 1.6 s: 20 kills all stopped at 13 of
+        // 16 results, the window being 0.58 s).
+        let widen = 1.5f64.powi(stalled.min(8) as i32);
+        let window = t_noop + (t_run * (0.25 + 0.6 * missing) * widen).min(t_ref.as_secs_f64());
         let delay = Duration::from_secs_f64(rng.random::<f64>() * window);
         let mut child = deformlab()
             .args(&args)
@@ -256,6 +263,7 @@ fn sigkill_at_20_random_moments_loses_nothing() {
             seen[k] = now.into_iter().filter(|(r, _)| is_result(r)).collect();
         }
         progress.push(stored);
+        stalled = if stored > in_round { 0 } else { stalled + 1 };
         in_round = stored;
         if stored == EXPERIMENTS.len() * N_RESULTS {
             for (k, e) in EXPERIMENTS.iter().enumerate() {
