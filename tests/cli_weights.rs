@@ -37,12 +37,7 @@ fn cli_weights_equal_the_library_and_meet_eq1() {
             .arg(csv)
             .output()
             .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        String::from_utf8_lossy(&out.stdout).into_owned()
+        common::stdout_ok(&out)
     };
     let stdout = run(&[], &csv);
     assert!(stdout.contains("mode: Coupled"), "{stdout}");

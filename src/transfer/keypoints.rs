@@ -522,7 +522,7 @@ pub fn select_keypoints(
             handles: h,
             unnormalized: w,
         });
-    let fit = ctx.fit(&set, None, own.as_ref())?;
+    let fit = ctx.fit(&set, own.as_ref())?;
     let (evaluations, failed_evaluations) = (sel.evaluations + 1, sel.failed);
     let repeated_trials = sel.cached;
     Ok(KeypointSelection {
@@ -574,7 +574,7 @@ pub fn fit_keypoints(
     let ctx = Context::new(source, deformed, opts)?;
     // Both modes fit with bounded biharmonic weights (fast mode only screens
     // candidates cheaply during a selection).
-    ctx.fit(keypoints, None, None)
+    ctx.fit(keypoints, None)
 }
 
 fn check_inputs(source: &Mesh, deformed: &[Mesh], opts: &KeypointOptions) -> Result<()> {
@@ -794,14 +794,10 @@ impl<'a> Context<'a> {
         })
     }
 
-    /// The final fit of a set, converted back to the original frame.
-    fn fit(
-        &self,
-        set: &[usize],
-        fast: Option<&GreenBasis>,
-        start: Option<&ActiveSetStart>,
-    ) -> Result<KeypointFit> {
-        let e = self.evaluate(set, fast, true, start)?;
+    /// The final (exact, bounded-weight) fit of a set, converted back to the
+    /// original frame; `start` as in [`Context::weights`].
+    fn fit(&self, set: &[usize], start: Option<&ActiveSetStart>) -> Result<KeypointFit> {
+        let e = self.evaluate(set, None, true, start)?;
         let transforms = e
             .stacked
             .iter()
