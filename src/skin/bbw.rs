@@ -178,6 +178,11 @@ pub struct BbwOptions {
     /// same mesh, 1e-8 stops 3.4e-4 (normalised weights; Coupled 8.2e-5)
     /// from a 1e-13 solve, whose energy is lower by 1.3e-6 relative — small
     /// bands where the optimum is below about 1e-3 stay at the bound.
+    /// libigl's `bbw` lands within 4.8e-7 of a 1e-14 solve there, so that
+    /// gap to it is ours; 1e-10 closes it to 9.1e-7 at 2.4× the active-set
+    /// time (197 → 489 factorisations), a cost the exact evaluations of key
+    /// point selection would pay (`results/bench/README.md`, afternoon of
+    /// 2026-12-03).
     pub tol: f64,
     /// Optional ADMM warm start (box constraints, all handles at once, one
     /// factorisation) for the initial active sets of the per-handle solves:
