@@ -39,8 +39,9 @@ medians of `--reps` runs (`--reps-large` at 28k and above, except key
 point selection at 27k, which gets `--reps`) of wall and CPU time
 (`time.process_time()` of the measured process, all its threads) are
 reported, and beside a median ratio the range of the per-run ratios
-(interleaved pairs) when there are several runs. Single-thread ratios are ratios of CPU time (the machine is
-shared; wall time is printed too); the 2-thread rows use wall time.
+(interleaved pairs) when there are several runs. Single-thread ratios are
+ratios of CPU time (the machine is shared; wall time is printed too); the
+2-thread rows use wall time.
 `--quick`: the smallest size only, fewer repetitions, a slice of the suite.
 """
 
