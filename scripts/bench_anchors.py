@@ -256,8 +256,9 @@ class Bench:
         p = subprocess.run([sys.executable, "-c", f"import {module}"], capture_output=True)
         return p.returncode == 0
 
-    def reps_for(self, label):
-        return self.a.reps if label == "6.9k" else self.a.reps_large
+    def reps_for(self, label, small=("6.9k",)):
+        """`--reps` runs at the sizes in `small`, `--reps-large` above."""
+        return self.a.reps if label in small else self.a.reps_large
 
     # -- rows
     def ops(self):
@@ -410,7 +411,7 @@ class Bench:
             walls, cpus = [], []
             # 27k sits near its target, so it gets the small sizes' runs
             # (a single run cannot tell a win from this machine's drift).
-            for r in range(self.a.reps if label in ("6.9k", "27k") else self.a.reps_large):
+            for r in range(self.reps_for(label, small=("6.9k", "27k"))):
                 with tempfile.TemporaryDirectory() as tmp:
                     cmd = [self.a.cli, "keypoints", "--source", str(A), "--deformed", str(A1),
                            "--candidates", "100", "--out", str(Path(tmp) / "kp")]

@@ -387,7 +387,8 @@ fn fast_mode_fits_and_transfers_with_bounded_weights() {
         }
     }
     assert!(dt < 1e-6, "transforms differ by {dt}");
-    // Every traced error is an exact one (the last is the final fit's).
+    // Every traced error is an exact one (the last equals the final fit's
+    // to the active-set tolerance).
     assert!(rel(sel.trace.last().unwrap().error, fit.error) < 1e-8);
     // fit_keypoints does not depend on the mode.
     let fit_fast = fit_keypoints(&a, &d, &sel.keypoints, &fast).unwrap();
