@@ -145,16 +145,6 @@ impl SymbolicCholesky {
         Self::new_unchecked_values(a)
     }
 
-    /// Like [`SymbolicCholesky::new`], but always with the supernodal
-    /// variant, whose solves work on dense blocks: faster when many
-    /// right-hand sides are solved at once (block eigensolvers), even where
-    /// the automatic choice would pick the simplicial variant for a single
-    /// factorisation.
-    pub fn new_supernodal(a: &SparseMatrix) -> Result<Self> {
-        check_symmetric(a)?;
-        Self::with_threshold(a, SupernodalThreshold::FORCE_SUPERNODAL)
-    }
-
     fn new_unchecked_values(a: &SparseMatrix) -> Result<Self> {
         Self::with_threshold(a, SupernodalThreshold::AUTO)
     }
