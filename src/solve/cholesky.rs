@@ -145,18 +145,21 @@ impl SymbolicCholesky {
         Self::new_unchecked_values(a)
     }
 
+    /// The analysis, with faer's automatic choice between the simplicial
+    /// and the supernodal variant (by the flop count of the pattern): the
+    /// simplicial one for the cotan Laplacian at 6.9k and 27k vertices
+    /// (supernodal at 108k), where its solves are the faster ones (see
+    /// [`crate::solve::eigen`]); the bounded-weight solvers, whose
+    /// biharmonic forms factorise faster supernodally at every size, force
+    /// that variant themselves (`solve::qp::ordered`).
     fn new_unchecked_values(a: &SparseMatrix) -> Result<Self> {
-        Self::with_threshold(a, SupernodalThreshold::AUTO)
-    }
-
-    fn with_threshold(a: &SparseMatrix, threshold: SupernodalThreshold) -> Result<Self> {
         let view = faer_view(a);
         let symbolic = fch::factorize_symbolic_cholesky(
             view.symbolic(),
             Side::Lower,
             fch::SymmetricOrdering::Amd,
             fch::CholeskySymbolicParams {
-                supernodal_flop_ratio_threshold: threshold,
+                supernodal_flop_ratio_threshold: SupernodalThreshold::AUTO,
                 ..Default::default()
             },
         )
