@@ -115,7 +115,7 @@ pub fn kmedoids(dist: &DMatrix<f64>, k: usize, seed: u64, max_swaps: usize) -> R
             *nr = nr.min(d(o, c));
         }
     }
-    let mut cache = Cache::new(n, k);
+    let mut cache = Cache::new(n, dist.max());
     cache.assign(&d, &medoids);
     let build_loss = cache.loss();
 
@@ -150,15 +150,7 @@ pub fn kmedoids(dist: &DMatrix<f64>, k: usize, seed: u64, max_swaps: usize) -> R
                         bi = i;
                     }
                 }
-                // One medoid: every item moves to the candidate (there is no
-                // second-nearest medoid to fall back to, which the cached
-                // form above assumes).
-                let change = if k == 1 {
-                    bi = 0;
-                    (0..n).map(|o| d(o, c)).sum::<f64>() - cache.loss()
-                } else {
-                    bv + acc
-                };
+                let change = bv + acc;
                 // Relative threshold: rounding in the bookkeeping must not
                 // cause endless swaps between equivalent medoids, nor decide
                 // between them.
@@ -198,14 +190,18 @@ struct Cache {
     near: Vec<usize>,
     dnear: Vec<f64>,
     dsec: Vec<f64>,
+    /// The largest dissimilarity: the "second-nearest" distance of every
+    /// item when there is one medoid.
+    far: f64,
 }
 
 impl Cache {
-    fn new(n: usize, _k: usize) -> Self {
+    fn new(n: usize, far: f64) -> Self {
         Cache {
             near: vec![0; n],
             dnear: vec![0.0; n],
             dsec: vec![0.0; n],
+            far,
         }
     }
 
@@ -224,10 +220,12 @@ impl Cache {
             }
             self.near[o] = b1;
             self.dnear[o] = d1;
-            // With one medoid there is no second (the swap step computes
-            // the change of k = 1 directly); d1 keeps the removal loss
-            // finite.
-            self.dsec[o] = if d2.is_finite() { d2 } else { d1 };
+            // With one medoid there is no second: any distance no item can
+            // exceed makes the swap step's change exact (an item not closer
+            // to the candidate then moves to it: (far − d1) + (d(o, c) −
+            // far)). d1, used before, dropped that move and took swaps that
+            // raised the loss.
+            self.dsec[o] = if d2.is_finite() { d2 } else { self.far };
         }
     }
 
