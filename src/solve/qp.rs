@@ -21,7 +21,7 @@ mod ordered;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use self::ordered::{Ordered, OrderedCholesky, SubsetFactorizer, UpperCsc};
+use self::ordered::{FactorBuffers, Ordered, OrderedCholesky, SubsetFactorizer, UpperCsc};
 use super::{SparseCholesky, SparseMatrix, SymbolicCholesky};
 use crate::{Error, Result};
 
@@ -946,6 +946,10 @@ struct SimplexState {
     /// Unknowns of row i: `var_start[i] .. var_start[i] + handles[i].len()`.
     handles: Vec<Vec<usize>>,
     var_start: Vec<usize>,
+    /// The reduced matrix and its factor's buffers, kept between
+    /// iterations (allocations of this size fault in fresh pages).
+    matrix: UpperCsc,
+    bufs: FactorBuffers,
 }
 
 /// Marks in `region` the variables (rows) within `hops` steps of `A`'s
@@ -1025,6 +1029,8 @@ fn simplex_step(
         x,
         handles,
         var_start,
+        matrix: h,
+        bufs,
     } = st;
     let mut nv = 0;
     for &i in &ordered.order {
@@ -1069,7 +1075,7 @@ fn simplex_step(
         }
         // Upper triangle, column (j, l): rows (i, k) for neighbours i
         // earlier in the order, and (j, k ≤ l).
-        let mut h = UpperCsc::with_capacity(nv, 0);
+        h.reset(nv);
         for (pj, &j) in ordered.order.iter().enumerate() {
             let pvj = pivot[j];
             for (tl, &l) in handles[j].iter().enumerate() {
@@ -1090,8 +1096,9 @@ fn simplex_step(
                 h.end_column();
             }
         }
-        let fac = OrderedCholesky::factorize(&h)?;
-        fac.solve_in_place(&mut rhs, 1);
+        let fac = OrderedCholesky::factorize_with(h, bufs)?;
+        fac.solve_in_place_with(&mut rhs, 1, &mut bufs.scratch);
+        fac.recycle(bufs);
         if rhs.iter().any(|v| !v.is_finite()) {
             return Err(Error::numerical(
                 "simplex-rows QP: the reduced solve produced non-finite values",
@@ -1209,6 +1216,8 @@ pub fn simplex_rows_qp(
         x: x0.clone(),
         handles: vec![Vec::new(); n],
         var_start: vec![0usize; n],
+        matrix: UpperCsc::default(),
+        bufs: FactorBuffers::default(),
     };
     let mut nv = 0;
     let mut converged = false;

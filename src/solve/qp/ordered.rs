@@ -19,7 +19,7 @@
 //! sequential: callers parallelise over independent problems instead, which
 //! keeps results independent of the thread count.
 
-use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::LltError;
 use faer::sparse::linalg::cholesky as fch;
 use faer::sparse::linalg::SupernodalThreshold;
@@ -53,6 +53,16 @@ impl UpperCsc {
         }
     }
 
+    /// Empties the matrix and sets its dimension to `n`, keeping the
+    /// allocations (for refilling with [`UpperCsc::push`]).
+    pub fn reset(&mut self, n: usize) {
+        self.n = n;
+        self.col_ptr.clear();
+        self.col_ptr.push(0);
+        self.row_idx.clear();
+        self.values.clear();
+    }
+
     #[inline]
     pub fn push(&mut self, row: usize, value: f64) {
         self.row_idx.push(row);
@@ -63,6 +73,40 @@ impl UpperCsc {
     pub fn end_column(&mut self) {
         self.col_ptr.push(self.row_idx.len());
     }
+}
+
+/// faer's scratch memory, kept between factorisations and solves and grown
+/// only when a request exceeds it. A fresh buffer per call costs a fresh
+/// zeroed allocation, which for a large factor means fresh pages faulted in
+/// by the kernel at every iteration of an active-set method.
+#[derive(Default)]
+pub(crate) struct Scratch {
+    buf: Option<MemBuffer>,
+    req: Option<StackReq>,
+}
+
+impl Scratch {
+    /// A stack of at least `req`.
+    pub fn stack(&mut self, req: StackReq) -> &mut MemStack {
+        let fits = self.req.is_some_and(|have| {
+            have.size_bytes() >= req.size_bytes() && have.align_bytes() >= req.align_bytes()
+        });
+        if !fits || self.buf.is_none() {
+            let grown = self.req.map_or(req, |have| have.or(req));
+            self.buf = Some(MemBuffer::new(grown));
+            self.req = Some(grown);
+        }
+        MemStack::new(self.buf.as_mut().expect("allocated above"))
+    }
+}
+
+/// The buffers of a sequence of factorisations of changing matrices
+/// ([`OrderedCholesky::factorize_with`]): the factor's values (faer
+/// overwrites them, so stale values do no harm) and the scratch memory.
+#[derive(Default)]
+pub(crate) struct FactorBuffers {
+    values: Vec<f64>,
+    pub scratch: Scratch,
 }
 
 /// Supernodal symbolic analysis of an upper triangle already in its
@@ -90,7 +134,7 @@ fn numeric_llt(
     values: &mut [f64],
     view: SparseColMatRef<'_, usize, f64>,
     side: Side,
-    buf: &mut MemBuffer,
+    stack: &mut MemStack,
 ) -> Result<()> {
     symbolic
         .factorize_numeric_llt(
@@ -99,7 +143,7 @@ fn numeric_llt(
             side,
             Default::default(),
             Par::Seq,
-            MemStack::new(buf),
+            stack,
             Default::default(),
         )
         .map(|_| ())
@@ -123,6 +167,12 @@ impl OrderedCholesky {
     /// triangle is `m` (already in elimination order). Errors with the
     /// failing pivot if it is not (numerically) positive definite.
     pub fn factorize(m: &UpperCsc) -> Result<Self> {
+        Self::factorize_with(m, &mut FactorBuffers::default())
+    }
+
+    /// [`OrderedCholesky::factorize`] with the values and scratch of
+    /// `bufs` (give the values back with [`OrderedCholesky::recycle`]).
+    pub fn factorize_with(m: &UpperCsc, bufs: &mut FactorBuffers) -> Result<Self> {
         let n = m.n;
         if n == 0 || m.col_ptr.len() != n + 1 {
             return Err(Error::invalid(format!(
@@ -131,29 +181,41 @@ impl OrderedCholesky {
         }
         let sym_view = SymbolicSparseColMatRef::new_checked(n, n, &m.col_ptr, None, &m.row_idx);
         let symbolic = supernodal_symbolic(sym_view)?;
-        let mut values = vec![0.0; symbolic.len_val()];
-        let mut buf = MemBuffer::new(
-            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
-        );
+        let mut values = std::mem::take(&mut bufs.values);
+        values.resize(symbolic.len_val(), 0.0);
+        let stack = bufs
+            .scratch
+            .stack(symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()));
         let view = SparseColMatRef::new(sym_view, &m.values);
-        numeric_llt(&symbolic, &mut values, view, Side::Upper, &mut buf)?;
+        numeric_llt(&symbolic, &mut values, view, Side::Upper, stack)?;
         Ok(OrderedCholesky { symbolic, values })
+    }
+
+    /// Hands the factor's values back to `bufs` for the next
+    /// [`OrderedCholesky::factorize_with`].
+    pub fn recycle(self, bufs: &mut FactorBuffers) {
+        bufs.values = self.values;
     }
 
     /// Solves `A X = B` in place; `x` is column-major `n × ncols`.
     pub fn solve_in_place(&self, x: &mut [f64], ncols: usize) {
+        self.solve_in_place_with(x, ncols, &mut Scratch::default());
+    }
+
+    /// [`OrderedCholesky::solve_in_place`] with kept scratch memory.
+    pub fn solve_in_place_with(&self, x: &mut [f64], ncols: usize, scratch: &mut Scratch) {
         let n = self.symbolic.nrows();
         debug_assert_eq!(x.len(), n * ncols);
         if ncols == 0 {
             return;
         }
         let par = Par::Seq;
-        let mut buf = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(ncols, par));
+        let stack = scratch.stack(self.symbolic.solve_in_place_scratch::<f64>(ncols, par));
         fch::LltRef::<usize, f64>::new(&self.symbolic, &self.values).solve_in_place_with_conj(
             Conj::No,
             MatMut::from_column_major_slice_mut(x, n, ncols),
             par,
-            MemStack::new(&mut buf),
+            stack,
         );
     }
 }
@@ -309,6 +371,7 @@ pub(crate) struct SubsetFactorizer {
     /// Lower triangle of the matrix factorised last (reused buffers).
     matrix: UpperCsc,
     values: Vec<f64>,
+    scratch: Scratch,
     /// Symbolic analyses done.
     pub analyses: usize,
 }
@@ -414,12 +477,12 @@ impl SubsetFactorizer {
             &mat.values,
         );
         let par = Par::Seq;
-        let mut buf = MemBuffer::new(
+        let stack = self.scratch.stack(
             symbolic
                 .factorize_numeric_llt_scratch::<f64>(par, Default::default())
                 .or(symbolic.solve_in_place_scratch::<f64>(1, par)),
         );
-        numeric_llt(symbolic, &mut self.values, view, Side::Lower, &mut buf)?;
+        numeric_llt(symbolic, &mut self.values, view, Side::Lower, stack)?;
         let mut y: Vec<f64> = self
             .vars
             .iter()
@@ -429,7 +492,7 @@ impl SubsetFactorizer {
             Conj::No,
             MatMut::from_column_major_slice_mut(&mut y, m, 1),
             par,
-            MemStack::new(&mut buf),
+            stack,
         );
         for (&i, &v) in self.vars.iter().zip(&y) {
             if keep[i] {
