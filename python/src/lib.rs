@@ -303,8 +303,9 @@ fn cotmatrix<'py>(
 ) -> PyResult<Csr<'py>> {
     let m = mesh("mesh", &v, &f)?;
     let l = py.detach(|| cotan_laplacian(&m));
-    let csr = nalgebra_sparse::CsrMatrix::from(&l);
-    let (offsets, cols, vals) = csr.csr_data();
+    // L is exactly symmetric (each edge's value is stored on both sides), so
+    // its compressed columns are its compressed rows: no conversion.
+    let (offsets, cols, vals) = l.csc_data();
     Ok((
         PyArray1::from_slice(py, vals),
         PyArray1::from_iter(py, cols.iter().map(|&c| c as i64)),
