@@ -164,8 +164,9 @@ pub struct BbwOptions {
     /// with resolution: a per-handle set needed 38 iterations at 6.9k
     /// vertices (FAUST), 207 at 27k (synthetic, resolution 3; the earlier
     /// default 200 failed there) and 429 at 108k; with it, 6 and 11 at 6.9k
-    /// and 27k, and 95 at 108k (6 FPS handles, 2026-12-03). The default 1000 is a guard against cycling, not a budget:
-    /// a converging solve stops earlier.
+    /// and 27k, and 95 at 108k (6 FPS handles, 2026-12-03). The default
+    /// 1000 is a guard against cycling, not a budget: a converging solve
+    /// stops earlier.
     pub max_iter: usize,
     /// Active-set tolerance, in weight units: a bound may be violated by at
     /// most `tol` before the vertex is fixed, and a fixed vertex is released

@@ -91,7 +91,7 @@ impl Scratch {
         let fits = self.req.is_some_and(|have| {
             have.size_bytes() >= req.size_bytes() && have.align_bytes() >= req.align_bytes()
         });
-        if !fits || self.buf.is_none() {
+        if !fits {
             let grown = self.req.map_or(req, |have| have.or(req));
             self.buf = Some(MemBuffer::new(grown));
             self.req = Some(grown);
