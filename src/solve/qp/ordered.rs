@@ -370,8 +370,8 @@ pub(crate) struct SubsetFactorizer {
     symbolic: Option<fch::SymbolicCholesky<usize>>,
     /// Lower triangle of the matrix factorised last (reused buffers).
     matrix: UpperCsc,
-    values: Vec<f64>,
-    scratch: Scratch,
+    /// The factor's values and faer's scratch.
+    bufs: FactorBuffers,
     /// Symbolic analyses done.
     pub analyses: usize,
 }
@@ -420,7 +420,7 @@ impl SubsetFactorizer {
         let sym_view =
             SymbolicSparseColMatRef::new_checked(m, m, &pattern.col_ptr, None, &pattern.row_idx);
         let symbolic = supernodal_symbolic(sym_view)?;
-        self.values.resize(symbolic.len_val(), 0.0);
+        self.bufs.values.resize(symbolic.len_val(), 0.0);
         self.symbolic = Some(symbolic);
         self.analyses += 1;
         Ok(())
@@ -477,18 +477,18 @@ impl SubsetFactorizer {
             &mat.values,
         );
         let par = Par::Seq;
-        let stack = self.scratch.stack(
+        let stack = self.bufs.scratch.stack(
             symbolic
                 .factorize_numeric_llt_scratch::<f64>(par, Default::default())
                 .or(symbolic.solve_in_place_scratch::<f64>(1, par)),
         );
-        numeric_llt(symbolic, &mut self.values, view, Side::Lower, stack)?;
+        numeric_llt(symbolic, &mut self.bufs.values, view, Side::Lower, stack)?;
         let mut y: Vec<f64> = self
             .vars
             .iter()
             .map(|&i| if keep[i] { rhs[i] } else { 0.0 })
             .collect();
-        fch::LltRef::<usize, f64>::new(symbolic, &self.values).solve_in_place_with_conj(
+        fch::LltRef::<usize, f64>::new(symbolic, &self.bufs.values).solve_in_place_with_conj(
             Conj::No,
             MatMut::from_column_major_slice_mut(&mut y, m, 1),
             par,
