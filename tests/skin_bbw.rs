@@ -202,6 +202,44 @@ fn weights_independent_of_thread_count() {
 }
 
 #[test]
+fn started_solves_are_placed_by_handle_whatever_their_order() {
+    // With an active-set start for some handles, the others (cold) are
+    // solved first; each column must still land in its handle's place. A
+    // cold handle's solve does not depend on the start, so its column and
+    // iteration count equal those of a solve without any start (bitwise),
+    // on one thread and on two.
+    let mesh = perturbed_sphere(3, 0.1, 7);
+    let all = random_handles(mesh.n_vertices(), 6, 7);
+    let bh = Biharmonic::new(&mesh).unwrap();
+    let opts = BbwOptions::with_mode(WeightMode::PerHandle);
+    let base: Vec<usize> = [&all[..2], &all[3..]].concat();
+    let earlier = bh.weights_with_report(&base, &opts).unwrap();
+    let raw = earlier.unnormalized.clone().unwrap();
+    let start = ActiveSetStart {
+        handles: &base,
+        unnormalized: &raw,
+    };
+    // all[2] is new: in the middle of the set, so it is moved to the front.
+    let cold = bh.weights_with_report(&all, &opts).unwrap();
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| bh.weights_from(&all, &opts, Some(&start)).unwrap())
+    };
+    let (one, two) = (run(1), run(2));
+    assert_eq!(one.weights, two.weights);
+    assert_eq!(one.handle_iterations, two.handle_iterations);
+    let (c, w) = (cold.unnormalized.unwrap(), one.unnormalized.unwrap());
+    assert_eq!(c.column(2), w.column(2), "the new handle's column moved");
+    assert_eq!(cold.handle_iterations[2], one.handle_iterations[2]);
+    // The started handles differ from the cold ones only to the tolerance.
+    assert!((&c - &w).abs().max() < 1e-6);
+    assert_ne!(cold.handle_iterations, one.handle_iterations);
+}
+
+#[test]
 fn admm_warm_start_changes_only_the_start() {
     // The optional ADMM warm start only seeds the active sets: the weights
     // are the same optimum (to the active-set tolerance) as from the

@@ -630,8 +630,16 @@ fn per_handle_raw(
     let done = std::sync::atomic::AtomicUsize::new(0);
     let step = format!("bounded biharmonic weights: {nh} handles on {nf} free vertices, handle");
     progress::update(&step, 0, nh);
-    let solutions: Vec<Result<BoxQpSolution>> = (0..nh)
+    // Solves started from an earlier active set ([`ActiveSetStart`]) take a
+    // few iterations, the others (key point selection's new handle) many:
+    // the latter are started first, so that the short ones fill the other
+    // threads instead of waiting behind them (one task per handle). Each
+    // solve is independent, so the order changes no result.
+    let mut order: Vec<usize> = (0..nh).collect();
+    order.sort_by_key(|&k| matches!(starts.get(k), Some(Some(_))));
+    let mut solutions: Vec<(usize, Result<BoxQpSolution>)> = order
         .into_par_iter()
+        .with_max_len(1)
         .map(|k| {
             let bk: Vec<f64> = b.column(k).iter().copied().collect();
             let from_warm: Vec<f64>;
@@ -645,11 +653,12 @@ fn per_handle_raw(
             let s = qp.solve(&bk, 0.0, 1.0, Some(x0), opts.max_iter, opts.tol);
             let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             progress::update(&step, d, nh);
-            s
+            (k, s)
         })
         .collect();
+    solutions.sort_by_key(|&(k, _)| k);
     let mut wf = DMatrix::zeros(nf, nh);
-    for (k, s) in solutions.into_iter().enumerate() {
+    for (k, s) in solutions {
         let s = s?;
         if !s.converged && !opts.accept_unconverged {
             return Err(Error::numerical(format!(
