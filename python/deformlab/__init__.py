@@ -365,6 +365,7 @@ def transfer(
     frame: Optional[str] = None,
     target_weights: Optional[str] = None,
     refine: Optional[bool] = None,
+    align: Optional[str] = None,
 ) -> Dict[str, Any]:
     """Deformation transfer ``A → A′_j`` onto ``B``, as ``deformlab transfer``.
 
@@ -372,7 +373,9 @@ def transfer(
     Algorithm 1, or ``keypoints`` given), their transforms ``T_k`` fitted on
     the ``A′_j`` (Eqs. 2–5), bounded biharmonic weights ``w′`` on B at the
     target key points, and ``B′_j = Σ_k w′_k T_k(B)`` (Sec. 3.6) in the
-    shared unit-sphere frame (``frame``).
+    shared unit-sphere frame (``frame``). ``align`` (``"none"``, the
+    default; ``"keypoints"``; ``"dense"``) rotates B onto A in that frame,
+    as the CLI's ``--align``.
 
     Target key points: ``target_keypoints`` (a list in key point order; needs
     ``keypoints``, as the CLI's ``--target-keypoints`` needs ``--keypoints``),
@@ -405,6 +408,7 @@ def transfer(
     r = _native.transfer(
         AV, AF, poses, BV, BF, tk, kp, correspondence, lm, method, n_candidates, seed,
         epsilon, max_keypoints, mode, error_norm, weights, frame, target_weights, refine,
+        align=align,
     )
     if "transforms" in r:
         r["transforms"] = _transforms(r["transforms"], len(poses))

@@ -36,7 +36,9 @@ use deformlab::register::{vertex_rows, FbtSetup, Schedule};
 use deformlab::skin::bbw::{bounded_biharmonic_weights, BbwOptions, WeightMode};
 use deformlab::solve::{generalized_eigen, EigenOptions};
 use deformlab::transfer::keypoints::{ErrorNorm, KeypointOptions, SelectionMode};
-use deformlab::transfer::{auto_correspondence, AutoOptions, TargetWeights, TransferFrame};
+use deformlab::transfer::{
+    auto_correspondence, AutoOptions, FrameAlign, TargetWeights, TransferFrame,
+};
 use deformlab::{Error, Mesh, Point};
 
 // ---------------------------------------------------------------------------
@@ -669,7 +671,7 @@ fn transfer_method(
 #[pyo3(signature = (av, af, poses, bv, bf, target_keypoints=None, keypoints=None,
     correspondence=None, landmarks=None, method=None, n_candidates=None, seed=None,
     epsilon=None, max_keypoints=None, mode=None, error_norm=None, weights=None,
-    frame=None, target_weights=None, refine=None))]
+    frame=None, target_weights=None, refine=None, align=None))]
 #[allow(clippy::too_many_arguments)]
 fn transfer<'py>(
     py: Python<'py>,
@@ -693,6 +695,7 @@ fn transfer<'py>(
     frame: Option<&str>,
     target_weights: Option<&str>,
     refine: Option<bool>,
+    align: Option<&str>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let (a, a_def) = source_and_poses(&av, &af, &poses)?;
     let b = mesh("B", &bv, &bf)?;
@@ -764,6 +767,10 @@ fn transfer<'py>(
         frame: match frame {
             Some(s) => parse_enum::<TransferFrame>("frame", s)?,
             None => d.frame,
+        },
+        align: match align {
+            Some(s) => parse_enum::<FrameAlign>("align", s)?,
+            None => d.align,
         },
         target_weights: match target_weights {
             Some(s) => parse_enum::<TargetWeights>("target_weights", s)?,

@@ -32,7 +32,7 @@ use deformlab::mesh::io::write_ply;
 use deformlab::methods::{
     BdtOptions, KeypointSource, TargetCorrespondence, TargetPoints, TransferCase, TransferMethod,
 };
-use deformlab::transfer::{TargetWeights, TransferFrame};
+use deformlab::transfer::{FrameAlign, TargetWeights, TransferFrame};
 use deformlab::{Error, Mesh, Result};
 
 use super::keypoints::{
@@ -102,6 +102,14 @@ pub struct TransferArgs {
         "How the transforms act on B",
         super::keypoints::value_name(&BdtOptions::default().frame)))]
     pub frame: Option<TransferFrame>,
+    /// Help text (with the library's default) in `help` below.
+    #[arg(long, value_enum, help = super::keypoints::default_help(
+        "Rotation of B onto A in the unit-sphere frame (none: B is only centred and scaled, so \
+         B′ follows translations and scalings of B, not rotations; keypoints: Kabsch on the key \
+         point pairs, at least 3 and not collinear; dense: on every vertex, needs \
+         --same-connectivity)",
+        super::keypoints::value_name(&BdtOptions::default().align)))]
+    pub align: Option<FrameAlign>,
     /// Help text (with the library's default) in `help` below.
     #[arg(long, value_enum, help = super::keypoints::default_help(
         "Weights computed on B (auto: those of the fit on A, per --mode)",
@@ -253,6 +261,7 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
     let options = BdtOptions {
         keypoints: opts.clone(),
         frame: a.frame.unwrap_or(d.frame),
+        align: a.align.unwrap_or(d.align),
         target_weights: a.target_weights.unwrap_or(d.target_weights),
         refine: a.refine || d.refine,
     };

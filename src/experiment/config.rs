@@ -111,7 +111,8 @@ use crate::register::DictionaryExamples;
 use crate::skin::bbw::{BbwOptions, WeightMode};
 use crate::skin::{FeatureKind, GroupFeatures};
 use crate::transfer::{
-    ErrorNorm, FastOptions, KeypointOptions, SelectionMode, TargetWeights, TransferFrame,
+    ErrorNorm, FastOptions, FrameAlign, KeypointOptions, SelectionMode, TargetWeights,
+    TransferFrame,
 };
 use crate::{Error, Result};
 
@@ -420,7 +421,8 @@ macro_rules! pipeline_struct {
             /// E_diff data term (default true; false: handle constraints).
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub use_ediff: Option<bool>,
-            /// ARAP weight λ (default 0.5).
+            /// ARAP weight λ (default 0.5) of every ARAP solve of the method: the
+            /// selection, the fit on A and the refinement on B (`refine = true`).
             #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Real::<NonNegative>::de")]
             pub lambda: Option<f64>,
             /// Stage-2 passes at most (default: until a pass changes nothing, Algorithm 1).
@@ -440,6 +442,11 @@ macro_rules! pipeline_struct {
             /// `raw` (alias `direct`) or `handle_relative`.
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub frame: Option<TransferFrame>,
+            /// Rotation of B onto A in the unit-sphere frame: `none` (the
+            /// library's default, `BdtOptions::default`), `keypoints` or
+            /// `dense` ([`FrameAlign`]).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub align: Option<FrameAlign>,
             /// ARAP refinement on the target (default false).
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub refine: Option<bool>,
@@ -1747,9 +1754,21 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
         let pipe = merge_pipeline!(m, config.defaults;
             n_candidates, seed, epsilon, error_norm, max_keypoints, mode, fps, groups,
             gamma_logr, gamma_s, n_groups, use_ediff, lambda, max_swap_passes, kmeans_sample,
-            arap_max_iter, selection_poses, frame, refine, target_weights, weights,
+            arap_max_iter, selection_poses, frame, align, refine, target_weights, weights,
             target_correspondence, target_noise, target_noise_seed);
         let bdt = bdt_options(&pipe, config.seed);
+        if bdt.align != FrameAlign::None && bdt.frame != TransferFrame::UnitSphere {
+            return Err(bad(
+                path,
+                key("align"),
+                format!(
+                    "align = {:?} rotates B in the unit-sphere frame, but frame = {:?}; use \
+                     frame = \"unit_sphere\" or drop align",
+                    bdt.align.name(),
+                    bdt.frame.name().replace('-', "_")
+                ),
+            ));
+        }
         let target = target_points(&pipe, &bdt);
         let seed = pipe.seed.unwrap_or(config.seed);
         if m.kind != MethodKind::Fbt {
@@ -1968,6 +1987,7 @@ fn bdt_options(p: &PipelineSpec, seed: u64) -> BdtOptions {
     BdtOptions {
         keypoints,
         frame: p.frame.unwrap_or(d.frame),
+        align: p.align.unwrap_or(d.align),
         target_weights: p.target_weights.unwrap_or(d.target_weights),
         refine: p.refine.unwrap_or(d.refine),
     }

@@ -7,13 +7,15 @@ use std::time::Instant;
 
 use super::keypoints::{memo_fit_timed, KeypointSource, PickedKeypoints};
 use super::target::{TargetFound, TargetPoints};
+use crate::arap::ArapOptions;
 use crate::baselines::{
     correspond, CageOptions, CageTransfer, CorrespondenceOptions, DeformationTransfer,
     SumnerTransferOptions, TriangleCorrespondence,
 };
 use crate::mesh::Mesh;
 use crate::transfer::{
-    transfer_detailed, KeypointFit, KeypointOptions, TargetWeights, TransferFrame, TransferOptions,
+    transfer_detailed, FrameAlign, KeypointFit, KeypointOptions, TargetWeights, TransferFrame,
+    TransferOptions,
 };
 use crate::{Error, Result, Vec3};
 
@@ -26,6 +28,8 @@ pub struct BdtOptions {
     pub keypoints: KeypointOptions,
     /// Where the transforms act on B.
     pub frame: TransferFrame,
+    /// Rotation of B onto A in the unit-sphere frame (none: the paper).
+    pub align: FrameAlign,
     /// Weights computed on B (`auto`: those of the fit on A).
     pub target_weights: TargetWeights,
     /// ARAP refinement on B after LBS (not in the paper).
@@ -36,14 +40,22 @@ impl BdtOptions {
     /// The options of [`transfer_detailed`]: B is skinned with the weight
     /// options of the fit on A (so that A → A reproduces the fit).
     pub fn transfer_options(&self) -> TransferOptions {
+        let d = TransferOptions::default();
         TransferOptions {
             frame: self.frame,
+            align: self.align,
             weights: self.keypoints.weights,
             weight_kind: self.target_weights.resolve(self.keypoints.mode),
             fast_bounds: self.keypoints.fast.bounds,
             refine: self.refine,
             seed: self.keypoints.seed,
-            ..TransferOptions::default()
+            // The refinement on B takes the ARAP weight λ of the fit on A
+            // (its handle targets and E_diff switch are its own).
+            arap: ArapOptions {
+                lambda: self.keypoints.arap.lambda,
+                ..d.arap
+            },
+            ..d
         }
     }
 }
@@ -174,14 +186,12 @@ impl TransferMethod {
                 let fit = (*fit).clone();
                 let seconds_fit = (t.elapsed().as_secs_f64() - waited).max(0.0);
                 let found = target.find(a, b, &picked.keypoints)?;
-                // Raw and handle-relative frames: when the registration
-                // rotated A onto B, the transforms are re-expressed in B's
-                // frame. The unit-sphere frame pre-aligns B to A from the
-                // key point pairs itself.
-                let registration_frame = match options.frame {
-                    TransferFrame::UnitSphere => None,
-                    TransferFrame::Raw | TransferFrame::HandleRelative => found.auto.as_ref(),
-                };
+                // When the registration of A onto B (automatic target
+                // correspondence) rotated A, the transforms are re-expressed
+                // in B's frame, whatever the frame: the registration is a
+                // dense correspondence, a better guide to the rotation than
+                // a handful of key point pairs.
+                let registration_frame = found.auto.as_ref();
                 let (a_t, transforms) = match registration_frame {
                     Some(r) => (
                         r.source_in_target_frame(a)?,

@@ -14,6 +14,6 @@ pub use keypoints::{
     KeypointOptions, KeypointSelection, SelectionMode, TraceStep,
 };
 pub use target::{
-    handle_relative, mean_vertex_error, transfer, transfer_detailed, TargetWeights, TransferFrame,
-    TransferOptions, TransferResult,
+    handle_relative, mean_vertex_error, transfer, transfer_detailed, FrameAlign, FrameMap,
+    TargetWeights, TransferFrame, TransferOptions, TransferResult,
 };

@@ -19,10 +19,15 @@
 //!    * [`TransferFrame::UnitSphere`] (default) — the paper's setting: the
 //!      models "scaled consistently to fit into a unit sphere" (Sec. 3.5)
 //!      and the `T_k` applied directly there (Sec. 3.6). A and B are each
-//!      normalised (centroid, largest radius), B is rigidly pre-aligned to
-//!      A from the key point pairs (more than two), and the result is
-//!      mapped back into B's frame ([`FrameMap`]): `T_k^B = M⁻¹ T_k M`.
-//!      Equivariant under rigid motions and uniform scaling of `B`.
+//!      normalised (centroid, largest radius) and the result is mapped back
+//!      into B's frame ([`FrameMap`]): `T_k^B = M⁻¹ T_k M`. By default B is
+//!      not rotated ([`FrameAlign::None`], the paper), which makes B′
+//!      equivariant under translations and uniform scalings of `B`, for
+//!      any number of key points, but not under its rotations. As options,
+//!      [`FrameAlign::Keypoints`] rotates B onto A by Kabsch on the key
+//!      point pairs (≥ 3, not collinear) and [`FrameAlign::Dense`] on every
+//!      vertex pair (shared connectivity); both make B′ equivariant under
+//!      rotations of B too.
 //!    * [`TransferFrame::Raw`] (ablation) — `T_k` applied as is in B's own
 //!      coordinates. Right only when `A` and `B` already share a frame;
 //!      FAUST subjects stand 0.35–0.38 apart, and a raw transfer across
@@ -91,11 +96,11 @@ use crate::{Error, Point, Result};
 pub enum TransferFrame {
     /// A and B share one frame (BDT Sec. 3.5–3.6: models "scaled
     /// consistently to fit into a unit sphere"): each is normalised into the
-    /// unit sphere (centroid, largest distance from it), B is rigidly
-    /// pre-aligned to A from the key point pairs when there are more than
-    /// two, the `T_k` act there and the result is mapped back into B's frame
-    /// ([`FrameMap`]). Equivariant: moving, rotating or uniformly scaling B
-    /// moves, rotates or scales B′ the same way.
+    /// unit sphere (centroid, largest distance from it), the transforms act
+    /// there and the result is mapped back into B's frame. B is not rotated
+    /// unless the rotation step (`align`) asks for it. B′ follows
+    /// translations and uniform scalings of B for any number of key points;
+    /// rotations of B only with `align = keypoints` or `align = dense`
     #[default]
     UnitSphere,
     /// Ablation: `T_k` applied to `B` in B's own coordinates, as fitted in
@@ -118,15 +123,66 @@ impl TransferFrame {
     }
 }
 
+/// Whether (and from what) the unit-sphere frame rotates B onto A before
+/// the transforms act ([`TransferFrame::UnitSphere`] only). The paper only
+/// scales A and B "consistently to fit into a unit sphere" (Sec. 3.5); a
+/// rotation is this library's addition, off by default. Configs and Python
+/// write `none`, `keypoints`, `dense`; so does the CLI (`--align`).
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    serde::Deserialize,
+    serde::Serialize,
+    clap::ValueEnum,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum FrameAlign {
+    /// No rotation (the paper): B is centred and scaled only, so B′ follows
+    /// translations and uniform scalings of B but not its rotations.
+    #[default]
+    None,
+    /// Rotation of B onto A by least squares (Kabsch) on the normalised key
+    /// point pairs. Refused with fewer than 3 pairs or when the key points
+    /// of A or B are nearly collinear (the rotation about their line is then
+    /// undetermined). On differently proportioned bodies a handful of pairs
+    /// can give a wrong rotation (measured on FAUST: 42-59 degrees where
+    /// all vertices give 4-12).
+    Keypoints,
+    /// Rotation of B onto A by least squares on every vertex pair: needs a
+    /// dense correspondence, i.e. A and B share connectivity (equal vertex
+    /// counts and target key points equal to the source key points).
+    Dense,
+}
+
+impl FrameAlign {
+    /// Name used on the command line, in configs and logs.
+    pub fn name(self) -> &'static str {
+        match self {
+            FrameAlign::None => "none",
+            FrameAlign::Keypoints => "keypoints",
+            FrameAlign::Dense => "dense",
+        }
+    }
+}
+
+/// Smallest ratio of the second to the first singular value of the centred
+/// key points that [`FrameAlign::Keypoints`] accepts (below it the points
+/// lie nearly on a line and the rotation about it is ill-determined).
+pub const MIN_KEYPOINT_SPREAD: f64 = 0.05;
+
 /// The similarity `y ↦ scale · R y + translation` that takes B into A's
-/// frame for [`TransferFrame::UnitSphere`]: `N_A⁻¹ ∘ (rigid pre-alignment) ∘
-/// N_B`, with `N_X(x) = (x − c_X) / r_X` (`c_X` the vertex centroid, `r_X`
-/// the largest distance of a vertex from it) and the rigid pre-alignment
-/// the least-squares rotation and translation of the normalised target key
-/// points onto the normalised source key points (Kabsch) when there are
-/// more than two pairs, else none. Transforms act on B as
-/// `T_k^B = M⁻¹ ∘ T_k ∘ M`; since LBS weights sum to one, this is the same
-/// as deforming `M(B)` with the `T_k` and mapping the result back.
+/// frame for [`TransferFrame::UnitSphere`]: `N_A⁻¹ ∘ (rotation) ∘ N_B`, with
+/// `N_X(x) = (x − c_X) / r_X` (`c_X` the vertex centroid, `r_X` the largest
+/// distance of a vertex from it) and the rotation chosen by [`FrameAlign`]:
+/// none (identity), the least-squares rigid motion (Kabsch) of the
+/// normalised target key points onto the normalised source key points, or
+/// of every normalised target vertex onto its source vertex. Transforms act
+/// on B as `T_k^B = M⁻¹ ∘ T_k ∘ M`; since LBS weights sum to one, this is
+/// the same as deforming `M(B)` with the `T_k` and mapping the result back.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameMap {
     pub scale: f64,
@@ -155,29 +211,103 @@ fn centre_radius(mesh: &Mesh) -> Result<(nalgebra::Vector3<f64>, f64)> {
     Ok((c, r))
 }
 
+/// Second over first singular value of the centred points (0 for a single
+/// point or coincident points).
+fn spread_ratio(points: &[Point]) -> f64 {
+    let n = points.len().max(1) as f64;
+    let c = points
+        .iter()
+        .fold(nalgebra::Vector3::zeros(), |s, p| s + p.coords)
+        / n;
+    let mut cov = nalgebra::Matrix3::zeros();
+    for p in points {
+        let d = p.coords - c;
+        cov += d * d.transpose();
+    }
+    // Singular values of the centred point matrix = square roots of the
+    // covariance's eigenvalues.
+    let mut ev: Vec<f64> = cov
+        .symmetric_eigenvalues()
+        .iter()
+        .map(|x| x.max(0.0).sqrt())
+        .collect();
+    ev.sort_by(|a, b| b.total_cmp(a));
+    if ev[0] > 0.0 {
+        ev[1] / ev[0]
+    } else {
+        0.0
+    }
+}
+
 impl FrameMap {
-    /// The map of B into A's frame (see the type documentation).
+    /// The map of B into A's frame (see the type documentation). Errors
+    /// when `align` cannot be honoured (too few or collinear key point
+    /// pairs for [`FrameAlign::Keypoints`]; no shared connectivity for
+    /// [`FrameAlign::Dense`]).
     pub fn unit_sphere(
         source: &Mesh,
         source_keypoints: &[usize],
         target: &Mesh,
         target_keypoints: &[usize],
+        align: FrameAlign,
     ) -> Result<FrameMap> {
         let (ca, ra) = centre_radius(source)?;
         let (cb, rb) = centre_radius(target)?;
-        let (rotation, t) = if source_keypoints.len() > 2 {
-            let na: Vec<Point> = source_keypoints
-                .iter()
-                .map(|&k| Point::from((source.vertices()[k].coords - ca) / ra))
-                .collect();
-            let nb: Vec<Point> = target_keypoints
-                .iter()
-                .map(|&k| Point::from((target.vertices()[k].coords - cb) / rb))
-                .collect();
-            let m = crate::eval::procrustes(&nb, &na)?;
-            (m.rotation, m.translation)
-        } else {
-            (nalgebra::Matrix3::identity(), nalgebra::Vector3::zeros())
+        let norm = |m: &Mesh, idx: &mut dyn Iterator<Item = usize>, c, r| -> Vec<Point> {
+            let c: nalgebra::Vector3<f64> = c;
+            let r: f64 = r;
+            idx.map(|k| Point::from((m.vertices()[k].coords - c) / r))
+                .collect()
+        };
+        let pairs = match align {
+            FrameAlign::None => None,
+            FrameAlign::Keypoints => {
+                let k = source_keypoints.len();
+                if k < 3 {
+                    return Err(Error::invalid(format!(
+                        "align = keypoints needs at least 3 key point pairs to determine a                          rotation, got {k}; use align = none (the default) or dense"
+                    )));
+                }
+                let na = norm(source, &mut source_keypoints.iter().copied(), ca, ra);
+                let nb = norm(target, &mut target_keypoints.iter().copied(), cb, rb);
+                for (name, pts) in [("source", &na), ("target", &nb)] {
+                    let q = spread_ratio(pts);
+                    if q < MIN_KEYPOINT_SPREAD {
+                        return Err(Error::invalid(format!(
+                            "align = keypoints: the {k} {name} key points lie nearly on a line                              (spread ratio {q:.3} < {MIN_KEYPOINT_SPREAD}), so the rotation                              about it is undetermined; use align = none (the default) or dense"
+                        )));
+                    }
+                }
+                Some((nb, na))
+            }
+            FrameAlign::Dense => {
+                if source.n_vertices() != target.n_vertices()
+                    || source_keypoints != target_keypoints
+                {
+                    return Err(Error::invalid(format!(
+                        "align = dense needs a dense correspondence: A and B sharing                          connectivity (the identity target correspondence), but A has {}                          vertices and B {}{}; use align = none (the default) or keypoints",
+                        source.n_vertices(),
+                        target.n_vertices(),
+                        if source_keypoints != target_keypoints {
+                            " and the target key points are not the source's"
+                        } else {
+                            ""
+                        }
+                    )));
+                }
+                let n = source.n_vertices();
+                Some((
+                    norm(target, &mut (0..n), cb, rb),
+                    norm(source, &mut (0..n), ca, ra),
+                ))
+            }
+        };
+        let (rotation, t) = match pairs {
+            Some((nb, na)) => {
+                let m = crate::eval::procrustes(&nb, &na)?;
+                (m.rotation, m.translation)
+            }
+            None => (nalgebra::Matrix3::identity(), nalgebra::Vector3::zeros()),
         };
         let scale = ra / rb;
         Ok(FrameMap {
@@ -252,6 +382,9 @@ impl TargetWeights {
 pub struct TransferOptions {
     /// Where the transforms act on `B`.
     pub frame: TransferFrame,
+    /// Rotation of B onto A in the unit-sphere frame (none by default);
+    /// must be `None` for the other frames.
+    pub align: FrameAlign,
     /// Bounded biharmonic weights on `B` (use the same options as the key
     /// point fitting on `A` so that `A → A` reproduces the fit exactly).
     pub weights: BbwOptions,
@@ -280,6 +413,7 @@ impl Default for TransferOptions {
     fn default() -> Self {
         TransferOptions {
             frame: TransferFrame::UnitSphere,
+            align: FrameAlign::None,
             weights: BbwOptions::default(),
             weight_kind: TargetWeights::Bounded,
             fast_bounds: FastBounds::ClampNormalize,
@@ -356,6 +490,14 @@ pub fn transfer_detailed(
         target,
         target_keypoints,
     )?;
+    if opts.align != FrameAlign::None && opts.frame != TransferFrame::UnitSphere {
+        return Err(Error::invalid(format!(
+            "align = {} rotates B in the unit-sphere frame; the {} frame has no such step \
+             (use frame = unit_sphere, or align = none)",
+            opts.align.name(),
+            opts.frame.name()
+        )));
+    }
 
     let t = Instant::now();
     let bih = Biharmonic::new(target)?;
@@ -379,7 +521,13 @@ pub fn transfer_detailed(
     let t = Instant::now();
     let on_target: Vec<Vec<Affine>> = match opts.frame {
         TransferFrame::UnitSphere => {
-            let m = FrameMap::unit_sphere(source, source_keypoints, target, target_keypoints)?;
+            let m = FrameMap::unit_sphere(
+                source,
+                source_keypoints,
+                target,
+                target_keypoints,
+                opts.align,
+            )?;
             transforms
                 .iter()
                 .map(|tj| tj.iter().map(|t| m.conjugate(t)).collect())
