@@ -242,3 +242,150 @@ fn faust_family(out: &mut String) -> Result<Option<Family>> {
         deformed,
     }))
 }
+
+/// The `verify_top` values [`run_fast_exact`] measures.
+pub const VERIFY_TOP_SWEEP: [usize; 5] = [1, 2, 3, 5, 10];
+
+/// Runs the fast-vs-exact table at `n_c = 10`, where exact mode is
+/// affordable at FAUST size, and returns it.
+///
+/// Families: the synthetic subject 0 at resolution 1 (m = 1 and 3) and 2
+/// (m = 1), and ten FAUST source/pose pairs across the five complete
+/// subjects (A = subject s in pose 0, A′ = the same subject in one of the
+/// large-motion poses 7, 8, 9: 1 → 7, 3 → 8, 5 → 9, 7 → 7, 9 → 8, then
+/// 1 → 9, 3 → 7, 5 → 8, 7 → 9, 9 → 7), skipped when the data are absent. Every fast row (each `verify_top` of
+/// [`VERIFY_TOP_SWEEP`]) is scored by the bounded-biharmonic fit of its
+/// final key points against exact mode's at the same `n_c`; CPU seconds
+/// (all threads) and wall seconds of one run each. `quick`: the synthetic
+/// rows and two FAUST pairs.
+pub fn run_fast_exact(quick: bool) -> Result<String> {
+    let mut out = String::new();
+    let n_c = 10;
+    emit!(
+        out,
+        "Fast vs exact key point selection at n_c = {n_c}, defaults otherwise (weights {:?}). \
+         Ê = the BBW fit error of the final key points (the same measure for both modes); gap = \
+         relative to exact mode; CPU = user + sys of all threads (s), wall (s), one run each; \
+         load = 1-minute load average when the row started.\n",
+        KeypointOptions::default().weights.mode
+    );
+    emit!(
+        out,
+        "| mesh | n | m | mode | verify_top | key points | Ê (BBW fit) | gap | evaluations | CPU (s) | wall (s) | load |"
+    );
+    emit!(out, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut gaps: Vec<(usize, f64)> = Vec::new();
+    let mut families: Vec<(Family, usize)> = Vec::new();
+    let syn1 = synthetic(1)?;
+    families.push((
+        Family {
+            name: syn1.name.clone(),
+            source: syn1.source.clone(),
+            deformed: syn1.deformed.clone(),
+        },
+        1,
+    ));
+    families.push((syn1, 3));
+    if !quick {
+        families.push((synthetic(2)?, 1));
+    }
+    let pairs: &[(usize, usize)] = if quick {
+        &[(1, 7), (3, 8)]
+    } else {
+        &[
+            (1, 7),
+            (3, 8),
+            (5, 9),
+            (7, 7),
+            (9, 8),
+            (1, 9),
+            (3, 7),
+            (5, 8),
+            (7, 9),
+            (9, 7),
+        ]
+    };
+    let dir = crate::data::shared_data_dir().map(|d| d.join("faust"));
+    let mut faust_found = 0;
+    for &(s, p) in pairs {
+        let Some(dir) = &dir else { break };
+        let a = dir.join(format!("tr_reg_{:03}.ply", 10 * s));
+        let a1 = dir.join(format!("tr_reg_{:03}.ply", 10 * s + p));
+        if !(a.exists() && a1.exists()) {
+            continue;
+        }
+        faust_found += 1;
+        families.push((
+            Family {
+                name: format!("FAUST {:03}→{:03}", 10 * s, 10 * s + p),
+                source: read_mesh(&a)?,
+                deformed: vec![read_mesh(&a1)?],
+            },
+            1,
+        ));
+    }
+    if faust_found == 0 {
+        emit!(
+            out,
+            "(FAUST subjects 1, 3, 5, 7, 9 not found: FAUST rows skipped)"
+        );
+    }
+    for (fam, m) in &families {
+        let deformed = &fam.deformed[..*m];
+        let mut exact_err = f64::NAN;
+        let mut rows = vec![(SelectionMode::Exact, 0)];
+        rows.extend(VERIFY_TOP_SWEEP.iter().map(|&v| (SelectionMode::Fast, v)));
+        for (mode, vt) in rows {
+            let mut opts = KeypointOptions {
+                n_candidates: n_c,
+                mode,
+                ..Default::default()
+            };
+            opts.fast.verify_top = vt.max(1);
+            let exact_opts = KeypointOptions {
+                mode: SelectionMode::Exact,
+                ..opts.clone()
+            };
+            let load = load_average();
+            let (wall, cpu, sel) =
+                super::time_cpu(1, || select_keypoints(&fam.source, deformed, &opts))?;
+            let fit = fit_keypoints(&fam.source, deformed, &sel.keypoints, &exact_opts)?;
+            let (name, vts, gap) = if mode == SelectionMode::Exact {
+                exact_err = fit.error;
+                ("exact", "–".to_string(), "–".to_string())
+            } else {
+                let g = 100.0 * (fit.error - exact_err) / exact_err;
+                gaps.push((vt, g));
+                ("fast", vt.to_string(), format!("{g:+.2} %"))
+            };
+            let mut kp = sel.keypoints.clone();
+            kp.sort_unstable();
+            emit!(
+                out,
+                "| {} | {} | {m} | {name} | {vts} | {kp:?} | {:.5} | {gap} | {} / {} | {cpu:.1} | {wall:.1} | {load:.1} |",
+                fam.name,
+                fam.source.n_vertices(),
+                fit.error,
+                sel.exact_evaluations,
+                sel.evaluations,
+            );
+        }
+    }
+    emit!(
+        out,
+        "\n| verify_top | rows | worst gap | mean gap | rows within 2 % |\n|---|---|---|---|---|"
+    );
+    for v in VERIFY_TOP_SWEEP {
+        let g: Vec<f64> = gaps.iter().filter(|(x, _)| *x == v).map(|p| p.1).collect();
+        let worst = g.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let mean = g.iter().sum::<f64>() / g.len().max(1) as f64;
+        let within = g.iter().filter(|x| **x <= 2.0).count();
+        emit!(
+            out,
+            "| {v} | {} | {worst:+.2} % | {mean:+.2} % | {within} / {} |",
+            g.len(),
+            g.len()
+        );
+    }
+    Ok(out)
+}

@@ -8,7 +8,8 @@
 //! * [`kernels`] — the groups of [`kernels::GROUPS`] (`ops`, `cholesky`,
 //!   `biharmonic`, `eigen`, `nalgebra`);
 //! * [`skin`] — `bbw` (bounded biharmonic weights and LBS);
-//! * [`bdt`] — `keypoints` (key point selection);
+//! * [`bdt`] — `keypoints` (key point selection) and `fast-exact` (fast
+//!   vs exact selection at n_c = 10, the `verify_top` sweep);
 //! * [`fbt`] — `fbt` (FBT Table 1 and NICP on a partial cat);
 //! * [`baselines`] — `baselines` (Sumner DT, then the Fig. 14 cases, then
 //!   Der et al. and Amberg NICP on the Fig. 7 completion case).
@@ -30,7 +31,7 @@ pub mod kernels;
 pub mod skin;
 
 /// Groups beyond the kernel groups of [`kernels::GROUPS`].
-pub const METHOD_GROUPS: [&str; 4] = ["bbw", "keypoints", "fbt", "baselines"];
+pub const METHOD_GROUPS: [&str; 5] = ["bbw", "keypoints", "fast-exact", "fbt", "baselines"];
 
 /// What [`run`] measures besides the group names.
 #[derive(Clone, Copy, Debug, Default)]
@@ -85,6 +86,10 @@ pub fn run(groups: &[String], opts: &BenchOptions, out: &mut dyn Write) -> Resul
     if want("keypoints") {
         put("\n## Key point selection\n\n")?;
         put(&bdt::run(quick, opts.exact_full)?)?;
+    }
+    if want("fast-exact") {
+        put("\n## Fast vs exact key point selection (n_c = 10)\n\n")?;
+        put(&bdt::run_fast_exact(quick)?)?;
     }
     if want("fbt") {
         put("\n## FBT registration (Table 1, NICP on a partial cat)\n\n")?;
