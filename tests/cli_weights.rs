@@ -40,7 +40,7 @@ fn cli_weights_equal_the_library_and_meet_eq1() {
         common::stdout_ok(&out)
     };
     let stdout = run(&[], &csv);
-    assert!(stdout.contains("mode: Coupled"), "{stdout}");
+    assert!(stdout.contains("mode: PerHandle"), "{stdout}");
     assert!(stdout.contains("converged true"), "{stdout}");
     let w = read_csv(&csv);
     assert_eq!(w.len(), mesh.n_vertices());
@@ -49,7 +49,17 @@ fn cli_weights_equal_the_library_and_meet_eq1() {
         .unwrap()
         .weights(&handles, &BbwOptions::default())
         .unwrap();
-    assert_eq!(BbwOptions::default().mode, WeightMode::Coupled);
+    // One weight-mode default: the weights command, key point selection
+    // and transfer (and so the configs) share it.
+    assert_eq!(BbwOptions::default().mode, WeightMode::PerHandle);
+    assert_eq!(
+        deformlab::transfer::KeypointOptions::default().weights,
+        BbwOptions::default()
+    );
+    assert_eq!(
+        deformlab::transfer::TransferOptions::default().weights,
+        BbwOptions::default()
+    );
     let mut max_diff: f64 = 0.0;
     for (i, row) in w.iter().enumerate() {
         assert_eq!(row.len(), handles.len());

@@ -557,7 +557,9 @@ fn matches_dense_projected_gradient_reference() {
 
     // Coupled: simplex projection of each row.
     let reference = fista(&q, &handles, &simplex, iters);
-    let ours = bh.weights(&handles, &BbwOptions::default()).unwrap();
+    let ours = bh
+        .weights(&handles, &BbwOptions::with_mode(WeightMode::Coupled))
+        .unwrap();
     let diff = (&ours - &reference).abs().max();
     assert!(diff < 1e-6, "coupled differs from reference by {diff}");
     let (eo, er) = (bh.energy(&ours).unwrap(), bh.energy(&reference).unwrap());

@@ -290,11 +290,12 @@ def bbw(V: Any, F: Any, handles: Any, mode: Optional[str] = None) -> np.ndarray:
     Minimises ``Σ_k ½ w_kᵀ Q w_k`` with ``Q = L M⁻¹ L`` subject to
     ``w_k(h_j) = δ_jk`` and ``0 ≤ w ≤ 1``. ``mode``:
 
-    * ``"coupled"`` (the library's default for ``None``): Eq. 1 as written,
-      bounds and partition of unity ``Σ_k w_k = 1`` in one problem;
-    * ``"per-handle"``: each ``w_k`` with its bounds, rows then normalised
-      to sum to one (libigl's ``bbw`` + ``normalize_row_sums``; BDT's
-      transfer uses these by default).
+    * ``"per-handle"`` (the library's default for ``None``, as in
+      ``deformlab weights``, ``transfer`` and the configs): each ``w_k`` with
+      its bounds, rows then normalised to sum to one (libigl's ``bbw`` +
+      ``normalize_row_sums``);
+    * ``"coupled"``: Eq. 1 as written, bounds and partition of unity
+      ``Σ_k w_k = 1`` in one problem.
 
     Returns float64 ``(n, len(handles))``; handles must be distinct vertices.
     """

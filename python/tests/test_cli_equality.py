@@ -112,3 +112,23 @@ def test_python_defaults_restate_no_numbers():
         for p in pyinspect.signature(fn).parameters.values():
             if p.default is not pyinspect.Parameter.empty:
                 assert p.default is None, f"{fn.__qualname__}({p.name}={p.default!r})"
+
+
+def test_weight_mode_default_is_one(cli, synthetic_files, tmp_path):
+    """One weight-mode default: `dl.bbw` without `mode`, `deformlab weights` without
+    `--mode`, and the mode that key point selection and transfer use (`--weights`
+    default, printed by `deformlab keypoints --help`) are the same, per-handle."""
+    d = synthetic_files
+    V, F = dl.read_mesh(d / "s0p0.ply")
+    h = dl.fps(V, F, 5, seed=1)
+    out = tmp_path / "w.csv"
+    r = _run(cli, "weights", d / "s0p0.ply", "--handle-vertices", ",".join(map(str, h)), "--out", out)
+    assert "mode: PerHandle" in r.stdout, r.stdout
+    W_cli = np.loadtxt(out, delimiter=",")
+    W_default = dl.bbw(V, F, h)
+    np.testing.assert_array_equal(W_default, dl.bbw(V, F, h, mode="per-handle"))
+    assert np.abs(W_default - dl.bbw(V, F, h, mode="coupled")).max() > 1e-6
+    np.testing.assert_allclose(W_cli, W_default, atol=1e-15, rtol=0)
+    for cmd in ("keypoints", "transfer", "weights"):
+        text = " ".join(_run(cli, cmd, "--help").stdout.split())
+        assert "[default: the library's, per-handle]" in text, f"{cmd} --help"

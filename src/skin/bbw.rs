@@ -140,9 +140,10 @@ use crate::{Error, Result};
 pub enum WeightMode {
     /// BDT Eq. 1: bounds and partition of unity enforced together (active
     /// set on the row supports, started from the PerHandle weights).
-    #[default]
     Coupled,
     /// Bounds per handle (active set), then rows normalised to sum to one.
+    /// The library's default ([`BbwOptions::default`]).
+    #[default]
     PerHandle,
     /// Biharmonic weights with the interpolation constraints only (ablation);
     /// they sum to one but may leave [0, 1].
@@ -154,7 +155,13 @@ pub enum WeightMode {
 /// Options of [`Biharmonic::weights`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BbwOptions {
-    /// Which problem to solve.
+    /// Which problem to solve. The one default of the library, `deformlab
+    /// weights`, `deformlab keypoints` / `transfer` (`--weights`), the
+    /// configs (`weights`) and Python (`dl.bbw`, `dl.transfer`):
+    /// [`WeightMode::PerHandle`], chosen on the FAUST cross-subject
+    /// benchmark (`experiments/real/bdt-faust.toml`, `coupled` row;
+    /// `docs/bdt-defaults.md`) and on the synthetic Fig. 14 cases, where
+    /// coupled weights transferred no better at several times the cost.
     pub mode: WeightMode,
     /// Active-set iterations allowed: per handle (PerHandle), and again for
     /// the coupled support iteration (Coupled). Not settling is an error
@@ -225,7 +232,7 @@ pub struct BbwOptions {
 impl Default for BbwOptions {
     fn default() -> Self {
         BbwOptions {
-            mode: WeightMode::Coupled,
+            mode: WeightMode::PerHandle,
             max_iter: 1000,
             tol: 1e-8,
             admm: AdmmOptions {
