@@ -13,7 +13,7 @@ method (in config order):
   truth (`err_mean_area`, `err_mean_area_rigid`);
 * within 0.02 / 0.05: mean fraction of vertices within that error (raw,
   and rigid);
-* beats floor: cases whose raw error is below the floor method's (the
+* beats floor: cases (× methods, with --by-group) whose raw error is below the floor method's (the
   target left unchanged) on the same case;
 * worst / floor: the largest ratio of the method's raw error to the
   floor's over the cases (above 1: a case where leaving B unchanged is
@@ -66,16 +66,23 @@ def main():
     ap.add_argument("--methods", nargs="*", default=None, help="rows of the overall table (default: all, in config order)")
     ap.add_argument("--only-by-pose", action="store_true", help="with --by-pose: that table alone")
     ap.add_argument("--only-per-case", action="store_true", help="with --per-case: that table alone")
+    ap.add_argument("--by-group", action="store_true",
+                    help="one row per method group (the configs' `group`; methods without one are their own)")
     a = ap.parse_args()
+    if a.by_group and (a.per_case or a.by_pose):
+        sys.exit("--by-group is for the overall table only")
     rows = load(a.results / "cases.csv")
     methods = []
     by = collections.defaultdict(dict)
+    floor = {}
     for r in rows:
-        if r["method"] not in by:
-            methods.append(r["method"])
-        by[r["method"]][r["case_id"]] = r
-    floor = by.get(a.floor)
-    if floor is None:
+        if r["method"] == a.floor:
+            floor[r["case_id"]] = r
+        name = (r.get("group") or r["method"]) if a.by_group else r["method"]
+        if name not in by:
+            methods.append(name)
+        by[name][(r["case_id"], r["method"]) if a.by_group else r["case_id"]] = r
+    if not floor:
         sys.exit(f"no floor method {a.floor!r} in {a.results}/cases.csv (methods: {', '.join(methods)})")
     n_cases = len({r["case_id"] for r in rows})
     only = (a.only_by_pose and a.by_pose) or (a.only_per_case and a.per_case)
@@ -101,9 +108,9 @@ def overall(a, rows, methods, by, floor, n_cases):
         ok = [r for r in cs.values() if r["status"] == "ok"]
         kp = mean([num(r, "n_keypoints") for r in ok])
         ratios = [
-            num(r, "err_mean_area") / num(floor[c], "err_mean_area")
-            for c, r in cs.items()
-            if r["status"] == "ok" and c in floor and floor[c]["status"] == "ok"
+            num(r, "err_mean_area") / num(floor[r["case_id"]], "err_mean_area")
+            for r in cs.values()
+            if r["status"] == "ok" and r["case_id"] in floor and floor[r["case_id"]]["status"] == "ok"
         ]
         beats = sum(1 for x in ratios if x < 1.0)
         worst = max(ratios) if ratios else math.nan

@@ -169,3 +169,34 @@ fn cli_weights_refuses_bad_handles_and_paths() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("missing.ply"));
 }
+
+/// Output piped into a reader that has gone (`deformlab weights … | head
+/// -1`) ends the process quietly, not with a panic in `println!`; the same
+/// run into an open pipe succeeds (so the check can fail).
+#[test]
+fn closed_stdout_pipe_is_not_a_panic() {
+    use std::process::Stdio;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("sphere.ply");
+    write_mesh(&path, &icosphere(2)).unwrap();
+    let run = |close: bool| {
+        let mut child = deformlab()
+            .arg("weights")
+            .arg(&path)
+            .args(["--handle-vertices", "0,20,40"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        if close {
+            drop(child.stdout.take());
+        }
+        child.wait_with_output().unwrap()
+    };
+    let open = run(false);
+    assert!(open.status.success());
+    assert!(String::from_utf8_lossy(&open.stdout).contains("handles: 3"));
+    let closed = run(true);
+    let stderr = String::from_utf8_lossy(&closed.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
