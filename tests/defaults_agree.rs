@@ -286,3 +286,48 @@ fn help_prints_the_library_defaults() {
     }
     assert!(!transfer.contains("[default: direct]"), "{transfer}");
 }
+
+/// `lambda` (the configs' key, `BdtOptions::keypoints.arap.lambda`) reaches
+/// the ARAP refinement on B, not only the selection and the fit on A: the
+/// transfer options carry it, and with the same transforms and weights a
+/// different λ gives the same LBS result but another refined B′.
+#[test]
+fn lambda_reaches_the_refinement_on_b() {
+    use deformlab::ops::sampling::{farthest_point_sampling, FpsMetric};
+    use deformlab::transfer::{fit_keypoints, transfer_detailed};
+    let set = FaustStyle {
+        subjects: 2,
+        poses: 2,
+        resolution: 1,
+        ..FaustStyle::default()
+    }
+    .generate()
+    .unwrap();
+    let (a, a1, b) = (&set.meshes[0][0], &set.meshes[0][1], &set.meshes[1][0]);
+    let kp = farthest_point_sampling(a, 5, FpsMetric::Geodesic, 0).unwrap();
+    let fit = fit_keypoints(
+        a,
+        std::slice::from_ref(a1),
+        &kp,
+        &KeypointOptions::default(),
+    )
+    .unwrap();
+    let run = |lambda: f64| {
+        let mut o = BdtOptions {
+            refine: true,
+            ..BdtOptions::default()
+        };
+        o.keypoints.arap.lambda = lambda;
+        let t = o.transfer_options();
+        assert_eq!(t.arap.lambda, lambda);
+        assert!(t.refine);
+        transfer_detailed(a, &kp, &fit.transforms, b, &kp, &t).unwrap()
+    };
+    let (lo, hi) = (run(0.05), run(5.0));
+    assert!(max_vertex_difference(&lo.lbs[0], &hi.lbs[0]) < 1e-12);
+    // The refinement holds the key points with μ = 1e5 (handle-constrained
+    // ARAP), so λ only sets how soft they are: a small but nonzero effect
+    // (identical options would give bitwise equal meshes).
+    let moved = max_vertex_difference(&lo.meshes[0], &hi.meshes[0]);
+    assert!(moved > 1e-8, "λ did not change the refined B′ ({moved})");
+}

@@ -422,7 +422,9 @@ macro_rules! pipeline_struct {
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub use_ediff: Option<bool>,
             /// ARAP weight λ (default 0.5) of every ARAP solve of the method: the
-            /// selection, the fit on A and the refinement on B (`refine = true`).
+            /// selection, the fit on A and the refinement on B (`refine = true`;
+            /// there the key points are held with weight μ = 1e5, so λ only sets
+            /// how soft they are and moves B′ little).
             #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Real::<NonNegative>::de")]
             pub lambda: Option<f64>,
             /// Stage-2 passes at most (default: until a pass changes nothing, Algorithm 1).
