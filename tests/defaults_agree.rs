@@ -30,14 +30,7 @@ fn max_vertex_difference(a: &deformlab::Mesh, b: &deformlab::Mesh) -> f64 {
 fn config_cli_and_library_defaults_agree() {
     let t = tempfile::tempdir().unwrap();
     let data = t.path().join("faust");
-    let set = FaustStyle {
-        subjects: 2,
-        poses: 2,
-        resolution: 1,
-        ..FaustStyle::default()
-    }
-    .generate()
-    .unwrap();
+    let set = small_set();
     write_faust_style(&data, &set).unwrap();
     let (a_path, a1_path, b_path) = (
         data.join("tr_reg_000.ply"),
@@ -162,19 +155,24 @@ fn config_cli_and_library_defaults_agree() {
     assert_eq!(d.target_weights, TargetWeights::Auto);
 }
 
-/// A changed default would show: the same case with the other value of
-/// each option gives other key points or another B′ (so the test above
-/// can fail).
-#[test]
-fn each_option_changes_the_result() {
-    let set = FaustStyle {
+/// Two subjects × two poses of the synthetic set at resolution 1.
+fn small_set() -> deformlab::data::synthetic::SyntheticSet {
+    FaustStyle {
         subjects: 2,
         poses: 2,
         resolution: 1,
         ..FaustStyle::default()
     }
     .generate()
-    .unwrap();
+    .unwrap()
+}
+
+/// A changed default would show: the same case with the other value of
+/// each option gives other key points or another B′ (so the test above
+/// can fail).
+#[test]
+fn each_option_changes_the_result() {
+    let set = small_set();
     let (a, a1, b) = (&set.meshes[0][0], &set.meshes[0][1], &set.meshes[1][0]);
     let run = |options: BdtOptions| {
         TransferMethod::Bdt {
@@ -295,14 +293,7 @@ fn help_prints_the_library_defaults() {
 fn lambda_reaches_the_refinement_on_b() {
     use deformlab::ops::sampling::{farthest_point_sampling, FpsMetric};
     use deformlab::transfer::{fit_keypoints, transfer_detailed};
-    let set = FaustStyle {
-        subjects: 2,
-        poses: 2,
-        resolution: 1,
-        ..FaustStyle::default()
-    }
-    .generate()
-    .unwrap();
+    let set = small_set();
     let (a, a1, b) = (&set.meshes[0][0], &set.meshes[0][1], &set.meshes[1][0]);
     let kp = farthest_point_sampling(a, 5, FpsMetric::Geodesic, 0).unwrap();
     let fit = fit_keypoints(
