@@ -300,3 +300,41 @@ fn weights_key_chooses_the_bounded_weight_problem() {
     let e = error_of(&GOOD.replace("kind = \"bdt\"\n", "kind = \"bdt\"\nweights = \"exact\"\n"));
     assert!(e.contains("weights") && e.contains("coupled"), "{e}");
 }
+
+/// A key that a method kind does not use is refused on the entry, naming the
+/// key and the kind: BDT's transfer-stage keys on the baselines that take its
+/// key points as markers, and every pipeline key on the kinds that select no
+/// key points. The same keys in [defaults] (shared by every method) are fine.
+#[test]
+fn keys_a_kind_does_not_use_are_refused() {
+    for (kind, key) in [
+        ("sumner", "frame = \"raw\""),
+        ("sumner", "refine = true"),
+        ("cage", "align = \"keypoints\""),
+        ("cage", "target_weights = \"fast\""),
+        ("identity", "lambda = 0.3"),
+        ("identity", "epsilon = 0.01"),
+        ("sumner_oracle", "weights = \"coupled\""),
+        ("sumner_oracle", "frame = \"raw\""),
+    ] {
+        let text = format!("{GOOD}[[methods]]\nname = \"extra\"\nkind = \"{kind}\"\n{key}\n");
+        let e = error_of(&text);
+        let field = key.split(' ').next().unwrap();
+        assert!(
+            e.contains(&format!("methods[2].{field}"))
+                && e.contains(&format!("does not apply to kind = \"{kind}\"")),
+            "{kind} with {key}: {e}"
+        );
+    }
+    // The keys a kind uses are accepted: the baselines' selection keys, and
+    // any pipeline key in [defaults].
+    let ok = format!(
+        "{}[[methods]]\nname = \"s\"\nkind = \"sumner\"\nepsilon = 0.02\nlambda = 0.3\n\
+         [[methods]]\nname = \"id\"\nkind = \"identity\"\n",
+        GOOD.replace(
+            "n_candidates = 12",
+            "n_candidates = 12\nframe = \"raw\"\nlambda = 0.4"
+        )
+    );
+    parse_config(&ok, Path::new("dir/exp.toml")).unwrap();
+}

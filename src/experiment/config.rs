@@ -1796,6 +1796,43 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
             not_for("examples", m.examples.is_some())?;
             not_for("n_clusters", m.n_clusters.is_some())
         };
+        // Keys of BDT's transfer stage (how the transforms act on B), which
+        // the baselines that take BDT's key points as markers do not use.
+        let no_transfer_stage_keys = || -> Result<()> {
+            not_for("frame", m.frame.is_some())?;
+            not_for("align", m.align.is_some())?;
+            not_for("refine", m.refine.is_some())?;
+            not_for("target_weights", m.target_weights.is_some())
+        };
+        // Every key of the BDT pipeline (selection, fit, transfer), for the
+        // kinds that select no key points. Set in [defaults] they are shared
+        // with the other methods and do not apply; set on the entry itself
+        // they are an error.
+        let no_pipeline_keys = || -> Result<()> {
+            no_transfer_stage_keys()?;
+            for (field, set) in [
+                ("n_candidates", m.n_candidates.is_some()),
+                ("epsilon", m.epsilon.is_some()),
+                ("error_norm", m.error_norm.is_some()),
+                ("max_keypoints", m.max_keypoints.is_some()),
+                ("mode", m.mode.is_some()),
+                ("fps", m.fps.is_some()),
+                ("groups", m.groups.is_some()),
+                ("gamma_logr", m.gamma_logr.is_some()),
+                ("gamma_s", m.gamma_s.is_some()),
+                ("n_groups", m.n_groups.is_some()),
+                ("use_ediff", m.use_ediff.is_some()),
+                ("lambda", m.lambda.is_some()),
+                ("max_swap_passes", m.max_swap_passes.is_some()),
+                ("kmeans_sample", m.kmeans_sample.is_some()),
+                ("arap_max_iter", m.arap_max_iter.is_some()),
+                ("selection_poses", m.selection_poses.is_some()),
+                ("weights", m.weights.is_some()),
+            ] {
+                not_for(field, set)?;
+            }
+            Ok(())
+        };
         let automatic = KeypointSource::Automatic {
             selection_poses: pipe.selection_poses,
         };
@@ -1818,6 +1855,7 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
                 // Pipeline keys inherited from [defaults] do not apply and
                 // are ignored; set on the entry itself they are an error.
                 no_bdt_user_keys()?;
+                no_pipeline_keys()?;
                 not_for("target_correspondence", m.target_correspondence.is_some())?;
                 not_for("target_noise", m.target_noise.is_some())?;
                 not_for("target_noise_seed", m.target_noise_seed.is_some())?;
@@ -1826,10 +1864,12 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
             MethodKind::SumnerOracle => {
                 no_bdt_user_keys()?;
                 no_target_keys()?;
+                no_pipeline_keys()?;
                 Method::Transfer(TransferMethod::SumnerOracle)
             }
             MethodKind::Sumner => {
                 no_bdt_user_keys()?;
+                no_transfer_stage_keys()?;
                 Method::Transfer(TransferMethod::Sumner {
                     keypoints: automatic,
                     target,
@@ -1838,6 +1878,7 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
             }
             MethodKind::Cage => {
                 no_bdt_user_keys()?;
+                no_transfer_stage_keys()?;
                 Method::Transfer(TransferMethod::Cage {
                     keypoints: automatic,
                     target,
