@@ -407,9 +407,10 @@ def transfer(
         raise ValueError(f"method: unknown transfer method {method!r}; expected one of {', '.join(TRANSFER_METHODS)}")
     lm = None if landmarks is None else _pairs(landmarks, "landmarks")
     r = _native.transfer(
-        AV, AF, poses, BV, BF, tk, kp, correspondence, lm, method, n_candidates, seed,
-        epsilon, max_keypoints, mode, error_norm, weights, frame, target_weights, refine,
-        align=align,
+        AV, AF, poses, BV, BF, target_keypoints=tk, keypoints=kp, correspondence=correspondence,
+        landmarks=lm, method=method, n_candidates=n_candidates, seed=seed, epsilon=epsilon,
+        max_keypoints=max_keypoints, mode=mode, error_norm=error_norm, weights=weights,
+        frame=frame, target_weights=target_weights, refine=refine, align=align,
     )
     if "transforms" in r:
         r["transforms"] = _transforms(r["transforms"], len(poses))

@@ -22,7 +22,7 @@ use crate::{Error, Result, Vec3};
 /// The options of BDT transfer: the selection and fit on A, and how the
 /// transforms act on B. Its [`Default`] is the one default of the CLI, the
 /// configs and the benchmarks.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct BdtOptions {
     /// Key point selection and fit on the source (Algorithm 1, Eq. 2–5).
     pub keypoints: KeypointOptions,
@@ -34,6 +34,20 @@ pub struct BdtOptions {
     pub target_weights: TargetWeights,
     /// ARAP refinement on B after LBS (not in the paper).
     pub refine: bool,
+}
+
+/// Written out (not derived) so that a new field needs a stated default,
+/// not a silent zero.
+impl Default for BdtOptions {
+    fn default() -> Self {
+        BdtOptions {
+            keypoints: KeypointOptions::default(),
+            frame: TransferFrame::UnitSphere,
+            align: FrameAlign::None,
+            target_weights: TargetWeights::Auto,
+            refine: false,
+        }
+    }
 }
 
 impl BdtOptions {
