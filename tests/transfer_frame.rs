@@ -205,12 +205,19 @@ fn keypoint_alignment_refuses_ill_posed_pairs() {
         let o = opts(TransferFrame::UnitSphere, FrameAlign::Keypoints);
         let e = transfer(&s.a, &f.kp, &f.transforms, &s.b, &f.kp, &o).unwrap_err();
         assert!(e.to_string().contains("at least 3"), "{k}: {e}");
+        assert!(!e.to_string().contains("  "), "a run of spaces in: {e}");
     }
     // Three key points on one line (two of them coincide): the rotation
     // about that line is undetermined.
     let kp = [s.fits[3].kp[0], s.fits[3].kp[0], s.fits[3].kp[1]];
     let e = FrameMap::unit_sphere(&s.a, &kp, &s.b, &kp, FrameAlign::Keypoints).unwrap_err();
     assert!(e.to_string().contains("nearly on a line"), "{e}");
+    assert!(!e.to_string().contains("  "), "a run of spaces in: {e}");
+    // `dense` needs the identity correspondence.
+    let other: Vec<usize> = kp.iter().map(|&k| k + 1).collect();
+    let e = FrameMap::unit_sphere(&s.a, &kp, &s.b, &other, FrameAlign::Dense).unwrap_err();
+    assert!(e.to_string().contains("dense correspondence"), "{e}");
+    assert!(!e.to_string().contains("  "), "a run of spaces in: {e}");
     // The same three key points are fine without the rotation step.
     FrameMap::unit_sphere(&s.a, &kp, &s.b, &kp, FrameAlign::None).unwrap();
     let f = &s.fits[3];

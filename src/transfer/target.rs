@@ -265,7 +265,8 @@ impl FrameMap {
                 let k = source_keypoints.len();
                 if k < 3 {
                     return Err(Error::invalid(format!(
-                        "align = keypoints needs at least 3 key point pairs to determine a                          rotation, got {k}; use align = none (the default) or dense"
+                        "align = keypoints needs at least 3 key point pairs to determine a \
+                         rotation, got {k}; use align = none (the default) or dense"
                     )));
                 }
                 let na = norm(source, &mut source_keypoints.iter().copied(), ca, ra);
@@ -274,7 +275,9 @@ impl FrameMap {
                     let q = spread_ratio(pts);
                     if q < MIN_KEYPOINT_SPREAD {
                         return Err(Error::invalid(format!(
-                            "align = keypoints: the {k} {name} key points lie nearly on a line                              (spread ratio {q:.3} < {MIN_KEYPOINT_SPREAD}), so the rotation                              about it is undetermined; use align = none (the default) or dense"
+                            "align = keypoints: the {k} {name} key points lie nearly on a line \
+                             (spread ratio {q:.3} < {MIN_KEYPOINT_SPREAD}), so the rotation \
+                             about it is undetermined; use align = none (the default) or dense"
                         )));
                     }
                 }
@@ -285,7 +288,9 @@ impl FrameMap {
                     || source_keypoints != target_keypoints
                 {
                     return Err(Error::invalid(format!(
-                        "align = dense needs a dense correspondence: A and B sharing                          connectivity (the identity target correspondence), but A has {}                          vertices and B {}{}; use align = none (the default) or keypoints",
+                        "align = dense needs a dense correspondence: A and B sharing \
+                         connectivity (the identity target correspondence), but A has {} \
+                         vertices and B {}{}; use align = none (the default) or keypoints",
                         source.n_vertices(),
                         target.n_vertices(),
                         if source_keypoints != target_keypoints {
