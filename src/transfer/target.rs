@@ -149,8 +149,10 @@ pub enum FrameAlign {
     /// point pairs. Refused with fewer than 3 pairs or when the key points
     /// of A or B are nearly collinear (the rotation about their line is then
     /// undetermined). On differently proportioned bodies a handful of pairs
-    /// can give a wrong rotation (measured on FAUST: 42-59 degrees where
-    /// all vertices give 4-12).
+    /// can give a wrong rotation: on the FAUST benchmark
+    /// (`experiments/real/bdt-faust.toml`, 3-6 key points) 0.7-12.7 degrees
+    /// (median 3.4) where all vertices give 1.0-4.3; issue 37 measured
+    /// 42-59 degrees with 3-4 key points on other FAUST cases.
     Keypoints,
     /// Rotation of B onto A by least squares on every vertex pair: needs a
     /// dense correspondence, i.e. A and B share connectivity (equal vertex
