@@ -42,6 +42,7 @@ fn load_average() -> f64 {
 }
 
 /// One mesh family of the comparison: source and deformed sources.
+#[derive(Clone)]
 struct Family {
     name: String,
     source: Mesh,
@@ -277,14 +278,7 @@ pub fn run_fast_exact(quick: bool) -> Result<String> {
     let mut gaps: Vec<(usize, f64)> = Vec::new();
     let mut families: Vec<(Family, usize)> = Vec::new();
     let syn1 = synthetic(1)?;
-    families.push((
-        Family {
-            name: syn1.name.clone(),
-            source: syn1.source.clone(),
-            deformed: syn1.deformed.clone(),
-        },
-        1,
-    ));
+    families.push((syn1.clone(), 1));
     families.push((syn1, 3));
     if !quick {
         families.push((synthetic(2)?, 1));

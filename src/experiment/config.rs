@@ -1759,18 +1759,9 @@ fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
             arap_max_iter, selection_poses, frame, align, refine, target_weights, weights,
             target_correspondence, target_noise, target_noise_seed);
         let bdt = bdt_options(&pipe, config.seed);
-        if bdt.align != FrameAlign::None && bdt.frame != TransferFrame::UnitSphere {
-            return Err(bad(
-                path,
-                key("align"),
-                format!(
-                    "align = {:?} rotates B in the unit-sphere frame, but frame = {:?}; use \
-                     frame = \"unit_sphere\" or drop align",
-                    bdt.align.name(),
-                    bdt.frame.name().replace('-', "_")
-                ),
-            ));
-        }
+        bdt.align
+            .check_frame(bdt.frame)
+            .map_err(|e| bad(path, key("align"), e.to_string()))?;
         let target = target_points(&pipe, &bdt);
         let seed = pipe.seed.unwrap_or(config.seed);
         if m.kind != MethodKind::Fbt {

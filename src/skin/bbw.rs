@@ -232,7 +232,7 @@ pub struct BbwOptions {
 impl Default for BbwOptions {
     fn default() -> Self {
         BbwOptions {
-            mode: WeightMode::PerHandle,
+            mode: WeightMode::default(),
             max_iter: 1000,
             tol: 1e-8,
             admm: AdmmOptions {

@@ -169,6 +169,21 @@ impl FrameAlign {
             FrameAlign::Dense => "dense",
         }
     }
+
+    /// A rotation step exists only in the unit-sphere frame: any other
+    /// `align` with another frame is an error (checked by
+    /// [`transfer_detailed`] and, naming the key, by the configs).
+    pub fn check_frame(self, frame: TransferFrame) -> Result<()> {
+        if self != FrameAlign::None && frame != TransferFrame::UnitSphere {
+            return Err(Error::invalid(format!(
+                "align = {} rotates B in the unit-sphere frame; the {} frame has no such step \
+                 (use frame = unit_sphere, or align = none)",
+                self.name(),
+                frame.name()
+            )));
+        }
+        Ok(())
+    }
 }
 
 /// Smallest ratio of the second to the first singular value of the centred
@@ -255,12 +270,16 @@ impl FrameMap {
     ) -> Result<FrameMap> {
         let (ca, ra) = centre_radius(source)?;
         let (cb, rb) = centre_radius(target)?;
-        let norm = |m: &Mesh, idx: &mut dyn Iterator<Item = usize>, c, r| -> Vec<Point> {
-            let c: nalgebra::Vector3<f64> = c;
-            let r: f64 = r;
+        // The vertices `idx` of `m` in its unit-sphere frame.
+        fn norm(
+            m: &Mesh,
+            idx: impl Iterator<Item = usize>,
+            c: nalgebra::Vector3<f64>,
+            r: f64,
+        ) -> Vec<Point> {
             idx.map(|k| Point::from((m.vertices()[k].coords - c) / r))
                 .collect()
-        };
+        }
         let pairs = match align {
             FrameAlign::None => None,
             FrameAlign::Keypoints => {
@@ -271,8 +290,8 @@ impl FrameMap {
                          rotation, got {k}; use align = none (the default) or dense"
                     )));
                 }
-                let na = norm(source, &mut source_keypoints.iter().copied(), ca, ra);
-                let nb = norm(target, &mut target_keypoints.iter().copied(), cb, rb);
+                let na = norm(source, source_keypoints.iter().copied(), ca, ra);
+                let nb = norm(target, target_keypoints.iter().copied(), cb, rb);
                 for (name, pts) in [("source", &na), ("target", &nb)] {
                     let q = spread_ratio(pts);
                     if q < MIN_KEYPOINT_SPREAD {
@@ -303,10 +322,7 @@ impl FrameMap {
                     )));
                 }
                 let n = source.n_vertices();
-                Some((
-                    norm(target, &mut (0..n), cb, rb),
-                    norm(source, &mut (0..n), ca, ra),
-                ))
+                Some((norm(target, 0..n, cb, rb), norm(source, 0..n, ca, ra)))
             }
         };
         let (rotation, t) = match pairs {
@@ -497,14 +513,7 @@ pub fn transfer_detailed(
         target,
         target_keypoints,
     )?;
-    if opts.align != FrameAlign::None && opts.frame != TransferFrame::UnitSphere {
-        return Err(Error::invalid(format!(
-            "align = {} rotates B in the unit-sphere frame; the {} frame has no such step \
-             (use frame = unit_sphere, or align = none)",
-            opts.align.name(),
-            opts.frame.name()
-        )));
-    }
+    opts.align.check_frame(opts.frame)?;
 
     let t = Instant::now();
     let bih = Biharmonic::new(target)?;
