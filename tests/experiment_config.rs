@@ -195,12 +195,18 @@ fn every_shipped_config_parses() {
 
 #[test]
 fn every_shipped_config_loads() {
-    // The configs of experiments/, experiments/real/ and experiments/large/:
+    // The configs of experiments/, experiments/real/, experiments/large/ and
+    // experiments/bench/:
     // schema and values always; the dataset paths of the real variants
     // (under ../shared/data) only where that folder is present, else SKIP.
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("experiments");
     let mut n = 0;
-    for dir in [root.clone(), root.join("real"), root.join("large")] {
+    for dir in [
+        root.clone(),
+        root.join("real"),
+        root.join("large"),
+        root.join("bench"),
+    ] {
         for entry in std::fs::read_dir(&dir).unwrap() {
             let p = entry.unwrap().path();
             if p.extension().is_some_and(|e| e == "toml") {

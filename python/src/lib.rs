@@ -970,22 +970,26 @@ impl PyFbtModel {
             },
             nicp: nicp.unwrap_or(d.nicp),
             pipeline: match pipeline {
-                None => d.pipeline,
-                Some("skeleton") => PipelineKind::Skeleton,
-                Some("lbo") => PipelineKind::Lbo,
-                Some(other) => {
-                    return Err(value_err(format!(
-                        "pipeline: unknown value {other:?}; expected \"skeleton\" or \"lbo\""
-                    )))
-                }
+                None => PipelineKind::default_for(rig.len()),
+                Some(name) => PipelineKind::from_name(name).ok_or_else(|| {
+                    value_err(format!(
+                        "pipeline: unknown value {name:?}; expected one of {}",
+                        PipelineKind::ALL
+                            .iter()
+                            .map(|p| format!("\"{}\"", p.name()))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ))
+                })?,
             },
             ..d
         };
-        if options.pipeline == PipelineKind::Skeleton && rig.is_empty() {
-            return Err(value_err(
-                "rig: the skeleton pipeline learns its bones from other poses of the class; \
-                 give more than one example, rig poses, or pipeline=\"lbo\"",
-            ));
+        if options.pipeline.uses_skeleton() && rig.is_empty() {
+            return Err(value_err(format!(
+                "rig: the {} pipeline learns its bones from other poses of the class; give more \
+                 than one example, rig poses, or pipeline=\"lbo\"",
+                options.pipeline.name()
+            )));
         }
         Ok(PyFbtModel {
             examples,

@@ -100,7 +100,7 @@ use crate::data::DataRoot;
 use crate::mesh::repair::DefectPolicy;
 use crate::methods::completion::{
     CompareWith, DictionaryKind, FbtOptions, FeatureOptions, PipelineKind, RestartOptions,
-    SolverKind,
+    RigSource, SolverKind,
 };
 use crate::methods::{
     BdtOptions, Clustering, Examples, KeypointSource, Pool, Strategy, TargetCorrespondence,
@@ -577,8 +577,13 @@ pub struct FbtSpec {
         deserialize_with = "Int::<1, 100>::de"
     )]
     pub bones: Option<usize>,
-    /// Shapes besides the reference and the target the skeleton weights
-    /// are learnt from (default 4).
+    /// Where the skeleton weights are learnt from: `"examples"` (the q
+    /// examples, default) or `"class"` (`rig_poses` shapes of the class
+    /// besides the reference and the target).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rig: Option<RigSource>,
+    /// With `rig = "class"`: shapes besides the reference and the target
+    /// the skeleton weights are learnt from (default 4).
     #[serde(
         default,
         skip_serializing_if = "Option::is_none",
@@ -698,8 +703,14 @@ impl FbtSpec {
             q: self.q.unwrap_or(d.q),
             m: self.m.unwrap_or(d.m),
             bones: self.bones.or(d.bones),
+            rig: self.rig.unwrap_or(d.rig),
             rig_poses: self.rig_poses.unwrap_or(d.rig_poses),
-            pipeline: self.pipeline.unwrap_or(d.pipeline),
+            pipeline: self.pipeline.unwrap_or_else(|| {
+                PipelineKind::default_for(match self.rig.unwrap_or(d.rig) {
+                    RigSource::Class => self.rig_poses.unwrap_or(d.rig_poses),
+                    RigSource::Examples => self.q.unwrap_or(d.q) - 1,
+                })
+            }),
             clusters: self.clusters.unwrap_or(d.clusters),
             scale: self.scale.unwrap_or(d.scale),
             alpha: self.alpha.or(d.alpha),
@@ -751,13 +762,45 @@ impl FbtSpec {
                 "does not apply to the skeleton dictionary (use `bones`)",
             );
         }
-        if self.pipeline == Some(PipelineKind::Lbo)
-            && self.task != FbtTask::Projection
-            && (self.bones.is_some() || self.rig_poses.is_some())
-        {
+        let o = self.resolve();
+        let skeleton = if self.task == FbtTask::Projection {
+            self.dictionary == Some(DictionaryKind::Skeleton)
+        } else {
+            matches!(self.solver.unwrap_or_default(), SolverKind::Fbt | SolverKind::Der)
+                && o.pipeline.uses_skeleton()
+        };
+        if !skeleton && (self.bones.is_some() || self.rig.is_some() || self.rig_poses.is_some()) {
+            let key = if self.bones.is_some() {
+                "bones"
+            } else if self.rig.is_some() {
+                "rig"
+            } else {
+                "rig_poses"
+            };
             return e(
-                "bones",
-                "bones / rig_poses configure the skeleton; pipeline = \"lbo\" has none",
+                key,
+                &format!(
+                    "bones / rig / rig_poses configure the skeleton; {} has none",
+                    if self.task == FbtTask::Projection {
+                        "this dictionary".to_string()
+                    } else {
+                        format!("pipeline = \"{}\"", o.pipeline.name())
+                    }
+                ),
+            );
+        }
+        if self.rig_poses.is_some() && o.rig != RigSource::Class {
+            return e(
+                "rig_poses",
+                "counts the class shapes of rig = \"class\"; with rig = \"examples\" the \
+                 bones are learnt from the q examples",
+            );
+        }
+        if skeleton && o.rig == RigSource::Examples && o.q < 2 {
+            return e(
+                "q",
+                "q = 1 leaves no example besides the reference to learn the skeleton's bones \
+                 from (rig = \"examples\"); use rig = \"class\" or pipeline = \"lbo\"",
             );
         }
         if self.task == FbtTask::Projection && self.pipeline.is_some() {
@@ -806,13 +849,14 @@ impl FbtSpec {
                     }
                     if self.pipeline.is_some()
                         || self.bones.is_some()
+                        || self.rig.is_some()
                         || self.rig_poses.is_some()
                         || self.restarts.is_some()
                     {
                         return e(
                             "pipeline",
                             &format!(
-                                "pipeline / bones / rig_poses / restarts configure FBT's \
+                                "pipeline / bones / rig / rig_poses / restarts configure FBT's \
                                  solve; solver = \"{}\" has none",
                                 other.name()
                             ),

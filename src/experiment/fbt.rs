@@ -33,14 +33,17 @@
 //!
 //! Relative distortion is the paper's: per vertex `‖p − p_true‖ / √area`
 //! with the area of the reference example. The skeleton dictionary (the
-//! `projection` task's `dictionary = "skeleton"` and the default solving
-//! pipeline's last stage and clusters) uses the bone weights of
-//! example-based skinning ([`crate::skin::rigging`]) learnt from the
-//! reference and `rig_poses` other shapes of the class (never the target),
-//! the same for every q. `completion` also flags gross failures
-//! (`failed_parts`, `gross_failure`: parts whose mean distortion exceeds
-//! 0.2 √area; parts = the dataset's true segmentation, else the rig's
-//! bones). Unreferenced vertices and tiny loose parts are dropped for every
+//! `projection` task's `dictionary = "skeleton"` and the skeleton
+//! pipelines' last stage or clusters) uses the bone weights of
+//! example-based skinning ([`crate::skin::rigging`]) learnt from the q
+//! examples (`rig = "examples"`, the default; q = 1 then has no rig) or from
+//! `rig_poses` other shapes of the class, never the target (`rig =
+//! "class"`, the same rig for every q). `completion` also flags gross
+//! failures (`failed_parts`, `gross_failure`: parts whose mean or worst
+//! distortion exceeds 0.2 √area; `worst_part_mean`, `worst_part_max`; parts
+//! = the dataset's true segmentation, else the bones of a rig learnt from
+//! four other shapes of the class: one measuring device for every method
+//! and q). Unreferenced vertices and tiny loose parts are dropped for every
 //! task (`dropped_vertices`).
 
 use std::time::Instant;
@@ -64,7 +67,7 @@ use crate::mesh::compact::{SolvablePart, DEFAULT_MIN_PART_FRACTION};
 use crate::mesh::set::ConnectivityReport;
 use crate::mesh::Mesh;
 use crate::methods::completion::{CompletionProblem, CompletionSolver, FbtOptions, FeatureOptions};
-use crate::methods::completion::{DictionaryKind, PipelineKind, SolverKind};
+use crate::methods::completion::{DictionaryKind, RigSource, SolverKind};
 use crate::register::{
     apply_rows, best_permutation, build_with_rig, feature_row_groups, interpolate, metrics,
     skeleton_rig, skeleton_weights, vertex_rows, IterOptions, Schedule,
@@ -177,38 +180,57 @@ fn load_case(col: &Collection, case: &Case, q: usize, seed: u64) -> Result<FbtCa
     })
 }
 
-/// The shapes the skeleton weights are learnt from: the first `rig_poses`
-/// of the class in draw order besides the reference and the target (the
-/// examples of every q come first, so the rig is the same for every q).
+/// The shapes the skeleton weights are learnt from: the q − 1 examples
+/// besides the reference (`rig = "examples"`), or the first `rig_poses`
+/// shapes of the class in draw order besides the reference and the target
+/// (`rig = "class"`: the examples of every q come first, so the rig is the
+/// same for every q).
 fn rig_shapes(fc: &FbtCase, o: &FbtOptions) -> Vec<Mesh> {
+    match o.rig {
+        RigSource::Examples => fc.examples[1..].to_vec(),
+        RigSource::Class => class_shapes(fc, o.rig_poses),
+    }
+}
+
+/// The first `n` shapes of the class in draw order besides the reference
+/// and the target (independent of q: the draws are nested).
+fn class_shapes(fc: &FbtCase, n: usize) -> Vec<Mesh> {
     fc.examples[1..]
         .iter()
         .chain(&fc.rest)
-        .take(o.rig_poses)
+        .take(n)
         .cloned()
         .collect()
 }
+
+/// Shapes of the class the measurement's parts are learnt from (when the
+/// dataset has no true segmentation): the same for every method and q.
+const PART_RIG_SHAPES: usize = 4;
 
 /// The parts of the class that a gross failure misplaces: the dataset's
 /// true segmentation when it has one (synthetic set), else the bones of
 /// the example-based skinning of the rig shapes (never the target),
 /// vertex → dominant bone.
-fn class_parts(col: &Collection, fc: &FbtCase, o: &FbtOptions) -> Result<Vec<usize>> {
+fn class_parts(col: &Collection, fc: &FbtCase) -> Result<Vec<usize>> {
     if let Some(labels) = &col.labels {
         if labels.len() == fc.part.new_index.len() {
             return Ok(fc.part.kept.iter().map(|&i| labels[i]).collect());
         }
     }
-    let rig = rig_shapes(fc, o);
+    let rig = class_shapes(fc, PART_RIG_SHAPES);
     if rig.is_empty() {
         return Err(Error::invalid(
             "the class's parts are learnt from its other shapes: the class has none besides \
              the reference and the target",
         ));
     }
-    Ok(skeleton_rig(&fc.examples[0], &rig, &o.rig_options())?
-        .labels
-        .clone())
+    // The library's rig options (not the method's `bones`): one measuring
+    // device for every method.
+    Ok(
+        skeleton_rig(&fc.examples[0], &rig, &crate::skin::rigging::RigOptions::default())?
+            .labels
+            .clone(),
+    )
 }
 
 /// Runs an FBT method on a case, filling `out` (see the module docs).
@@ -239,10 +261,7 @@ pub fn run(
         // The solving pipeline (Der et al. uses its rotation clusters).
         out.set(
             "pipeline",
-            match o.pipeline {
-                PipelineKind::Skeleton => "skeleton",
-                PipelineKind::Lbo => "lbo",
-            },
+o.pipeline.name(),
         );
     }
     out.set(
@@ -265,7 +284,7 @@ pub fn run(
         FbtTask::Scale => scale(&fc, &o, seed, out, render_dir.as_ref(), &pose),
         FbtTask::Completion => completion(
             &fc,
-            &class_parts(col, &fc, &o)?,
+            &class_parts(col, &fc)?,
             &o,
             solver,
             seed,
@@ -344,10 +363,16 @@ fn projection(fc: &FbtCase, spec: &FbtSpec, o: &FbtOptions, out: &mut CaseResult
         }
         DictionaryKind::Skeleton => {
             let rig = rig_shapes(fc, o);
-            if rig.len() < o.rig_poses {
+            let want = match o.rig {
+                RigSource::Examples => 1,
+                RigSource::Class => o.rig_poses,
+            };
+            if rig.len() < want {
                 return Err(Error::invalid(format!(
-                    "skeleton weights need {} rig shapes besides the reference and the target",
-                    o.rig_poses
+                    "skeleton weights need {want} rig shape(s) besides the reference and the \
+                     target (rig = \"{}\"); the case has {}",
+                    o.rig.name(),
+                    rig.len()
                 )));
             }
             let (w, r) = skeleton_weights(reference, &rig, &o.rig_options())?;
@@ -590,18 +615,22 @@ fn completion(
         problem.target().vertices(),
         problem.area(),
     )?;
-    // Gross failures: a part (limb, torso) misplaced on average by more
-    // than GROSS_FAILURE_DISTORTION √area.
-    let per_part = metrics::part_distortions(&d, parts)?;
+    // Gross failures: a part (limb, torso) off by more than
+    // GROSS_FAILURE_DISTORTION √area on average or at its worst.
+    let per_part = metrics::part_errors(&d, parts)?;
     let failed = per_part
         .iter()
-        .filter(|p| p.1 > metrics::GROSS_FAILURE_DISTORTION)
+        .filter(|p| p.failed(metrics::GROSS_FAILURE_DISTORTION))
         .count();
     out.set("failed_parts", failed.to_string());
     out.set("gross_failure", if failed > 0 { "1" } else { "0" });
     out.set(
-        "worst_part_error",
-        num(per_part.iter().map(|p| p.1).fold(0.0, f64::max)),
+        "worst_part_mean",
+        num(per_part.iter().map(|p| p.mean).fold(0.0, f64::max)),
+    );
+    out.set(
+        "worst_part_max",
+        num(per_part.iter().map(|p| p.worst).fold(0.0, f64::max)),
     );
     // Curves. Distortion: share of template points within a relative
     // distance (√area units) of their true position; also in unit-sphere

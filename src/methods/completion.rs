@@ -25,7 +25,7 @@ use crate::data::partial::{feature_points, make_partial, PartialOptions, Partial
 use crate::mesh::Mesh;
 use crate::ops::{mass_matrix, MassKind};
 use crate::register::{
-    apply_rows, build_with_rig, circle_radii, feature_circle_constraints, metrics, nicp,
+    apply_rows, build_with_rig, circle_radii, ClusterSource, feature_circle_constraints, metrics, nicp,
     ConstraintRows, DictionaryExamples, FbtConfig, FbtParams, InitMethod, NicpOptions, ScaleMode,
     Schedule, StageConfig, WeightChoice,
 };
@@ -81,11 +81,13 @@ pub struct FbtOptions {
     /// Bones of the skeleton weights (`None`: chosen by the data, see
     /// [`crate::skin::rigging::RigOptions`]).
     pub bones: Option<usize>,
-    /// Shapes besides the reference and the target the skeleton weights
-    /// are learnt from (the same for every q).
+    /// Where the skeleton weights are learnt from (see [`RigSource`]).
+    pub rig: RigSource,
+    /// With `rig = RigSource::Class`: how many shapes of the class besides
+    /// the reference and the target (the same for every q).
     pub rig_poses: usize,
-    /// Last stage and clusters: the paper's articulated-shape pipeline
-    /// (skeleton) or the LBO-only variant.
+    /// Stages and clusters (see [`PipelineKind`]; the configs' and
+    /// Python's unset `pipeline` is [`PipelineKind::default_for`] the rig).
     pub pipeline: PipelineKind,
     /// Rotation clusters r.
     pub clusters: usize,
@@ -123,12 +125,15 @@ pub struct FbtOptions {
 impl Default for FbtOptions {
     fn default() -> Self {
         let config = FbtConfig::default();
+        let q = 4;
         FbtOptions {
-            q: 4,
+            q,
             m: 10,
             bones: config.rig.bones,
+            rig: RigSource::default(),
             rig_poses: 4,
-            pipeline: PipelineKind::default(),
+            // The rig of the default `rig = examples`: the q − 1 others.
+            pipeline: PipelineKind::default_for(q - 1),
             clusters: config.clusters,
             scale: 1.5,
             alpha: None,
@@ -168,10 +173,7 @@ impl FbtOptions {
 
     /// The pipeline configuration of the solving tasks.
     pub fn config(&self, seed: u64) -> FbtConfig {
-        let base = match self.pipeline {
-            PipelineKind::Skeleton => FbtConfig::default(),
-            PipelineKind::Lbo => FbtConfig::lbo_only(),
-        };
+        let base = self.pipeline.config();
         let mut c = FbtConfig {
             seed,
             rig: self.rig_options(),
@@ -874,18 +876,123 @@ pub enum DictionaryKind {
     OneExample,
 }
 
-/// The solving pipeline of the FBT tasks.
+/// Where the skeleton weights (example-based skinning of the reference)
+/// are learnt from.
+#[derive(Clone, Copy, Debug, Default, serde::Deserialize, serde::Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RigSource {
+    /// The q examples only (the reference against the q − 1 others): what
+    /// the method is given. At q = 1 there is no pose to learn bones from,
+    /// so a pipeline that uses the skeleton refuses q = 1.
+    #[default]
+    Examples,
+    /// The examples and further shapes of the class (never the target):
+    /// the first `rig_poses` shapes besides the reference in draw order,
+    /// the same rig for every q. More data than the q examples: an
+    /// explicit option, not the paper's setting.
+    Class,
+}
+
+impl RigSource {
+    /// The name in configs.
+    pub fn name(self) -> &'static str {
+        match self {
+            RigSource::Examples => "examples",
+            RigSource::Class => "class",
+        }
+    }
+}
+
+/// Shapes besides the reference a rig must be learnt from before the
+/// default pipeline uses its clusters ([`PipelineKind::default_for`]).
+pub const MIN_RIG_SHAPES: usize = 3;
+
+/// The solving pipeline of the FBT tasks. The default is chosen per case
+/// by [`PipelineKind::default_for`]: the skeleton clusters
+/// ([`PipelineKind::SkeletonClusters`], the default value) when the rig has
+/// [`MIN_RIG_SHAPES`] shapes, else LBO only.
 #[derive(Clone, Copy, Debug, Default, serde::Deserialize, serde::Serialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum PipelineKind {
     /// The paper's articulated-shape pipeline: last stage the example-based
     /// skeleton dictionary, rotation clusters from the skeleton weights
     /// (k-means of them, `clusters` = r; [`FbtConfig::default`]).
-    #[default]
     Skeleton,
     /// LBO only: last stage LBO m = 15, clusters from the main LBO weights
     /// ([`FbtConfig::lbo_only`]).
     Lbo,
+    /// Ablation: the skeleton dictionary as the last stage, the rotation
+    /// clusters of the LBO-only pipeline (k-means of the main LBO weights).
+    SkeletonDictionary,
+    /// The LBO-only pipeline's stages with the paper's rotation clusters
+    /// (k-means of the skeleton weights): the skeleton weights where they
+    /// help. The default with a rig of [`MIN_RIG_SHAPES`] shapes.
+    #[default]
+    SkeletonClusters,
+}
+
+impl PipelineKind {
+    /// Every pipeline, in the order of the docs.
+    pub const ALL: [PipelineKind; 4] = [
+        PipelineKind::Skeleton,
+        PipelineKind::Lbo,
+        PipelineKind::SkeletonDictionary,
+        PipelineKind::SkeletonClusters,
+    ];
+
+    /// The name in configs and tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            PipelineKind::Skeleton => "skeleton",
+            PipelineKind::Lbo => "lbo",
+            PipelineKind::SkeletonDictionary => "skeleton_dictionary",
+            PipelineKind::SkeletonClusters => "skeleton_clusters",
+        }
+    }
+
+    /// The pipeline of this kind (before the options' m, r, rig and seed).
+    pub fn config(self) -> FbtConfig {
+        match self {
+            PipelineKind::Skeleton => FbtConfig::default(),
+            PipelineKind::Lbo => FbtConfig::lbo_only(),
+            PipelineKind::SkeletonDictionary => FbtConfig {
+                cluster_source: ClusterSource::MainWeights,
+                ..FbtConfig::default()
+            },
+            PipelineKind::SkeletonClusters => FbtConfig {
+                cluster_source: ClusterSource::SkeletonWeights,
+                ..FbtConfig::lbo_only()
+            },
+        }
+    }
+
+    /// The default pipeline for a rig learnt from `rig_shapes` shapes
+    /// besides the reference: [`PipelineKind::default`] (the skeleton
+    /// clusters over the LBO stages) when there are at least
+    /// [`MIN_RIG_SHAPES`], else the LBO-only pipeline. Chosen by the FBT
+    /// benchmark (docs/fbt-benchmark.md): a rig learnt from one other shape
+    /// (q = 2) makes clusters that complete worse than the LBO ones on the
+    /// synthetic class, the cat and the centaur; from three or more (q ≥ 4)
+    /// the skeleton clusters complete better on every class. Cases record
+    /// the pipeline that ran in their `pipeline` column.
+    pub fn default_for(rig_shapes: usize) -> Self {
+        let d = PipelineKind::default();
+        if d.uses_skeleton() && rig_shapes < MIN_RIG_SHAPES {
+            PipelineKind::Lbo
+        } else {
+            d
+        }
+    }
+
+    /// The pipeline named `name` (see [`Self::name`]).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| p.name() == name)
+    }
+
+    /// Whether the pipeline needs a rig (skeleton weights).
+    pub fn uses_skeleton(self) -> bool {
+        self.config().uses_skeleton()
+    }
 }
 
 /// Which examples the ARAP energy compares against.

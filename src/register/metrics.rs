@@ -92,14 +92,30 @@ pub fn correspondence_errors(
         .collect()
 }
 
-/// A part (limb, torso, …) whose mean relative distortion exceeds this is
-/// misplaced: a gross failure of a completion (√area units).
+/// A part (limb, torso, …) whose mean or worst relative distortion exceeds
+/// this is misplaced: a gross failure of a completion (√area units).
 pub const GROSS_FAILURE_DISTORTION: f64 = 0.2;
 
-/// Mean relative distortion of every part: `labels[i]` is vertex `i`'s part
-/// (`0..`); parts without a vertex are skipped. Returns `(part, mean)` in
-/// part order.
-pub fn part_distortions(distortion: &[f64], labels: &[usize]) -> Result<Vec<(usize, f64)>> {
+/// The error of one part: its mean and its worst (largest) relative
+/// distortion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PartError {
+    pub part: usize,
+    pub mean: f64,
+    pub worst: f64,
+}
+
+impl PartError {
+    /// Whether the part is off by more than `threshold` on average or at
+    /// its worst.
+    pub fn failed(&self, threshold: f64) -> bool {
+        self.mean > threshold || self.worst > threshold
+    }
+}
+
+/// Mean and worst relative distortion of every part: `labels[i]` is vertex
+/// `i`'s part (`0..`); parts without a vertex are skipped. In part order.
+pub fn part_errors(distortion: &[f64], labels: &[usize]) -> Result<Vec<PartError>> {
     if distortion.len() != labels.len() {
         return Err(Error::invalid(format!(
             "{} distortions for {} part labels",
@@ -109,27 +125,33 @@ pub fn part_distortions(distortion: &[f64], labels: &[usize]) -> Result<Vec<(usi
     }
     let k = labels.iter().max().map_or(0, |m| m + 1);
     let mut sum = vec![0.0; k];
+    let mut worst = vec![f64::NEG_INFINITY; k];
     let mut count = vec![0usize; k];
     for (&d, &l) in distortion.iter().zip(labels) {
         sum[l] += d;
+        worst[l] = worst[l].max(d);
         count[l] += 1;
     }
     Ok((0..k)
         .filter(|&p| count[p] > 0)
-        .map(|p| (p, sum[p] / count[p] as f64))
+        .map(|p| PartError {
+            part: p,
+            mean: sum[p] / count[p] as f64,
+            worst: worst[p],
+        })
         .collect())
 }
 
-/// Parts whose mean relative distortion exceeds `threshold` (see
+/// Parts off by more than `threshold` on average or at their worst (see
 /// [`GROSS_FAILURE_DISTORTION`]).
 pub fn failed_parts(
     distortion: &[f64],
     labels: &[usize],
     threshold: f64,
-) -> Result<Vec<(usize, f64)>> {
-    Ok(part_distortions(distortion, labels)?
+) -> Result<Vec<PartError>> {
+    Ok(part_errors(distortion, labels)?
         .into_iter()
-        .filter(|&(_, d)| d > threshold)
+        .filter(|p| p.failed(threshold))
         .collect())
 }
 
@@ -138,14 +160,23 @@ mod part_tests {
     use super::*;
 
     #[test]
-    fn part_means_and_failures() {
-        let d = [0.1, 0.3, 0.5, 0.0, 0.0];
-        let l = [0, 0, 1, 3, 3];
-        let p = part_distortions(&d, &l).unwrap();
-        assert_eq!(p.len(), 3);
-        assert!((p[0].1 - 0.2).abs() < 1e-15 && p[1] == (1, 0.5) && p[2] == (3, 0.0));
-        let f = failed_parts(&d, &l, GROSS_FAILURE_DISTORTION).unwrap();
-        assert_eq!(f, vec![(1, 0.5)]);
-        assert!(part_distortions(&d, &l[..2]).is_err());
+    fn part_means_worsts_and_failures() {
+        let d = [0.1, 0.3, 0.5, 0.0, 0.0, 0.05, 0.25];
+        let l = [0, 0, 1, 3, 3, 4, 4];
+        let p = part_errors(&d, &l).unwrap();
+        assert_eq!(p.len(), 4);
+        assert!((p[0].mean - 0.2).abs() < 1e-15 && p[0].worst == 0.3);
+        assert_eq!((p[1].part, p[1].mean, p[1].worst), (1, 0.5, 0.5));
+        assert_eq!((p[2].part, p[2].mean, p[2].worst), (3, 0.0, 0.0));
+        // Part 4: mean 0.15 under the threshold, worst 0.25 over it.
+        assert!((p[3].mean - 0.15).abs() < 1e-15 && p[3].worst == 0.25);
+        let f: Vec<usize> = failed_parts(&d, &l, GROSS_FAILURE_DISTORTION)
+            .unwrap()
+            .iter()
+            .map(|p| p.part)
+            .collect();
+        // Part 0 fails by its worst (0.3), part 1 by both, part 4 by its worst.
+        assert_eq!(f, vec![0, 1, 4]);
+        assert!(part_errors(&d, &l[..2]).is_err());
     }
 }

@@ -98,6 +98,10 @@ pub enum ClusterSource {
     /// The skeleton's bones: each vertex in the cluster of its dominant bone
     /// (r = the number of bones; `clusters` is not used).
     Skeleton,
+    /// k-means (r clusters) on the skeleton weights, whichever stages use
+    /// them (the paper's clusters without its skeleton dictionary: an
+    /// ablation).
+    SkeletonWeights,
 }
 
 /// Everything needed to build an [`FbtPipeline`].
@@ -193,7 +197,10 @@ impl FbtConfig {
 
     /// Whether any stage or the clusters use the skeleton weights.
     pub fn uses_skeleton(&self) -> bool {
-        self.cluster_source == ClusterSource::Skeleton
+        matches!(
+            self.cluster_source,
+            ClusterSource::Skeleton | ClusterSource::SkeletonWeights
+        )
             || self
                 .init
                 .iter()
@@ -336,6 +343,10 @@ pub fn build_with_rig(examples: &[Mesh], rig_shapes: &[Mesh], cfg: &FbtConfig) -
         ClusterSource::RichWeights => w_rich
             .as_ref()
             .ok_or_else(|| Error::invalid("cluster source RichWeights without a rich stage"))?
+            .rotation_clusters(cfg.clusters, cfg.seed)?,
+        ClusterSource::SkeletonWeights => skeleton
+            .as_ref()
+            .ok_or_else(|| Error::invalid("skeleton weight clusters without a rig"))?
             .rotation_clusters(cfg.clusters, cfg.seed)?,
         ClusterSource::Skeleton => {
             let r = rig
