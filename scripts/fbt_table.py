@@ -9,8 +9,8 @@ and for every method: runs, mean relative distortion after NICP (sqrt(area)
 units) and before it, after the best rigid alignment, the share of gross
 failures (a part off by more than 0.2 sqrt(area) on average or at its
 worst), the mean worst part (mean / worst), alpha, the correspondence error,
-and how many runs the method wins against the default pipeline at the same
-q (paired by case). The floor (template left undeformed) is a row like the
+and how many runs the method wins against the default at the same q (paired
+by case; Amberg and the floor against the default at q = 4). The floor (template left undeformed) is a row like the
 others. Methods are named `<pipeline>-q<q>` (`lbo-q4`, `skeleton-q4`, ...),
 `der-q<q>`, `amberg`, `template`.
 
@@ -29,12 +29,15 @@ import re
 import sys
 
 
-def read(folder):
+def read(folder, pooled):
     path = os.path.join(folder, "cases.csv")
     if not os.path.isfile(path):
         sys.exit(f"{path}: no such file")
     with open(path, newline="") as fh:
         rows = [r for r in csv.DictReader(fh) if r.get("fbt_task") == "completion"]
+    name = os.path.basename(os.path.normpath(folder))
+    for r in rows:
+        r["_group"] = name if pooled else r["source"]
     return rows
 
 
@@ -65,7 +68,7 @@ def tables(rows, default):
     for r in rows:
         if r.get("status") != "ok":
             continue
-        by_class[r["source"]][r["method"]][r["case_id"]] = r
+        by_class[r["_group"]][r["method"]][r["case_id"]] = r
     out = {}
     for cls, methods in sorted(by_class.items()):
         lines = []
@@ -76,7 +79,7 @@ def tables(rows, default):
 
         def key(name):
             fam, q = method_q(name)
-            order = {default: 0, "lbo": 1, "skeleton": 2, "skeleton-class": 3, "skeleton-dictionary": 4,
+            order = {"default": 0, default: 0, "lbo": 1, "skeleton": 2, "skeleton-class": 3, "skeleton-dictionary": 4,
                      "skeleton-clusters": 5, "lbo-alpha1": 6, "der": 7, "amberg": 8, "template": 9}
             return (order.get(fam, 5.5), fam, q or 0)
 
@@ -85,10 +88,10 @@ def tables(rows, default):
             rs = list(runs.values())
             fam, q = method_q(name)
             wins = ""
-            if q is not None and fam != default:
-                ref = methods.get(f"{default}-q{q}", {})
+            if q is not None:
+                ref = methods.get(default_method(methods, default, q), {})
             else:
-                ref = methods.get(f"{default}-q4", {}) if fam in ("amberg", "template") else {}
+                ref = methods.get(default_method(methods, default, 4), {}) if fam in ("amberg", "template") else {}
             paired = [(num(r, "rel_distortion_mean"), num(ref[c], "rel_distortion_mean"))
                       for c, r in runs.items() if c in ref]
             if paired and ref is not runs:
@@ -113,8 +116,14 @@ def tables(rows, default):
 
 
 def default_method(methods, default, q):
-    """The default's row at q: `<default>-q<q>`, else the LBO-only row (a
-    pipeline that needs a rig runs LBO only at q = 1)."""
+    """The default's row at q: `<default>-q<q>`; for `auto`, the library's
+    rule without `default-q*` rows (skeleton clusters from a rig of 3 shapes,
+    q >= 4 with the rig from the examples; LBO only below); else the
+    LBO-only row (a pipeline that needs a rig runs LBO only at q = 1)."""
+    if default == "auto":
+        if f"default-q{q}" in methods:
+            return f"default-q{q}"
+        return f"skeleton-clusters-q{q}" if q >= 4 else f"lbo-q{q}"
     name = f"{default}-q{q}"
     return name if name in methods else f"lbo-q{q}"
 
@@ -124,7 +133,7 @@ def check(cls, methods, default):
         rs = methods.get(name, {})
         return mean([num(r, "rel_distortion_mean") for r in rs.values()]) if rs else math.nan
 
-    qs = sorted(q for fam, q in map(method_q, methods) if fam in (default, "lbo") and q is not None)
+    qs = sorted(q for fam, q in map(method_q, methods) if fam in (default, "lbo", "default") and q is not None)
     qs = sorted(set(qs))
     dm = {q: default_method(methods, default, q) for q in qs}
     res = []
@@ -155,16 +164,21 @@ def check(cls, methods, default):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("folders", nargs="+")
-    ap.add_argument("--default", default="lbo", help="the default pipeline's method family (lbo)")
+    ap.add_argument("--default", default="auto",
+                    help="the default's method family: auto (default-q* rows, else the library's rule), lbo, ...")
     ap.add_argument("--check", action="store_true", help="print the acceptance of issue 38 per class")
+    ap.add_argument("--pooled", action="store_true", help="one table per results folder (all its classes) instead of per class")
+    ap.add_argument("--methods", help="comma-separated methods to show (default: all)")
     a = ap.parse_args(argv)
-    rows = [r for f in a.folders for r in read(f)]
+    rows = [r for f in a.folders for r in read(f, a.pooled)]
     if not rows:
         sys.exit("no FBT completion rows")
     failed = 0
+    keep = set(a.methods.split(",")) if a.methods else None
     for cls, (lines, methods) in tables(rows, a.default).items():
-        print(f"\n### class {cls}\n")
-        print("\n".join(lines))
+        print(f"\n### {'' if a.pooled else 'class '}{cls}\n")
+        print("\n".join(ln for ln in lines if keep is None or not ln.startswith("| ") or
+                        ln.split(" | ")[0][2:] in keep or ln.startswith("| method") ))
         if a.check:
             print()
             for text, ok in check(cls, methods, a.default):

@@ -284,13 +284,21 @@ fn bad_fbt_tables_are_rejected_naming_the_key() {
     // The rig: rig_poses counts class shapes (rig = "class" only); a
     // pipeline that uses the skeleton learns it from the q examples by
     // default, which q = 1 does not have.
-    let e = err("kind = \"fbt\"\nfbt = { task = \"completion\", pipeline = \"skeleton\", rig_poses = 3 }\n");
-    assert!(e.contains("methods[0].fbt.rig_poses") && e.contains("class"), "{e}");
+    let e = err(
+        "kind = \"fbt\"\nfbt = { task = \"completion\", pipeline = \"skeleton\", rig_poses = 3 }\n",
+    );
+    assert!(
+        e.contains("methods[0].fbt.rig_poses") && e.contains("class"),
+        "{e}"
+    );
     for kind in ["skeleton", "skeleton_dictionary", "skeleton_clusters"] {
         let e = err(&format!(
             "kind = \"fbt\"\nfbt = {{ task = \"completion\", q = 1, pipeline = \"{kind}\" }}\n"
         ));
-        assert!(e.contains("methods[0].fbt.q") && e.contains("rig"), "{kind}: {e}");
+        assert!(
+            e.contains("methods[0].fbt.q") && e.contains("rig"),
+            "{kind}: {e}"
+        );
         parse_config(
             &format!(
                 "{base}kind = \"fbt\"\nfbt = {{ task = \"completion\", q = 1, pipeline = \"{kind}\", \
@@ -300,9 +308,13 @@ fn bad_fbt_tables_are_rejected_naming_the_key() {
         )
         .unwrap();
     }
-    let e = err("kind = \"fbt\"\nfbt = { task = \"completion\", pipeline = \"lbo\", rig = \"class\" }\n");
+    let e = err(
+        "kind = \"fbt\"\nfbt = { task = \"completion\", pipeline = \"lbo\", rig = \"class\" }\n",
+    );
     assert!(e.contains("methods[0].fbt.rig"), "{e}");
-    let e = err("kind = \"fbt\"\nfbt = { task = \"completion\", solver = \"amberg\", rig = \"class\" }\n");
+    let e = err(
+        "kind = \"fbt\"\nfbt = { task = \"completion\", solver = \"amberg\", rig = \"class\" }\n",
+    );
     assert!(e.contains("methods[0].fbt"), "{e}");
     let e = err("kind = \"fbt\"\nfbt = { task = \"completion\", pipeline = \"skeletal\" }\n");
     assert!(e.contains("skeletal") || e.contains("pipeline"), "{e}");

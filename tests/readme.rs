@@ -327,7 +327,7 @@ fn readme_result_numbers_match_the_committed_results() {
     assert_states(
         &readme,
         &format!(
-            "skeleton pipeline {}, LBO only {} (correspondence error, Euclidean, {} and {})",
+            "default {}, LBO only {} (correspondence error, Euclidean, {} and {})",
             row("", "rel_distortion_mean"),
             row("lbo-", "rel_distortion_mean"),
             row("", "corr_error_mean_euclidean"),
@@ -366,9 +366,52 @@ fn readme_result_numbers_match_the_committed_results() {
     assert_states(
         &readme,
         &format!(
-            "synthetic skeleton {} of 50, LBO only {};",
+            "synthetic default {} of 50, LBO only {};",
             failures(""),
             failures("lbo-")
+        ),
+    );
+
+    // The FBT benchmark on real data (committed tables of
+    // experiments/real/fbt-bench-*.toml): the default is LBO only at q = 1,
+    // 2 and the skeleton clusters at q = 4, 8.
+    let s = summary("real/fbt-bench-faust");
+    let d = |m: &str| format!("{:.4}", mean(&s, m, "rel_distortion_mean"));
+    let joined = |ms: &[&str]| ms.iter().map(|m| d(m)).collect::<Vec<_>>().join(" / ");
+    assert_states(
+        &readme,
+        &format!(
+            "FAUST, 45 cases: default {}, the paper's skeleton pipeline — / {}, Der et al. {}, \
+             Amberg NICP {}, floor {}.",
+            joined(&[
+                "lbo-q1",
+                "lbo-q2",
+                "skeleton-clusters-q4",
+                "skeleton-clusters-q8"
+            ]),
+            joined(&["skeleton-q2", "skeleton-q4", "skeleton-q8"]),
+            joined(&["der-q1", "der-q2", "der-q4", "der-q8"]),
+            d("amberg"),
+            d("template"),
+        ),
+    );
+    let s = summary("real/fbt-bench-tosca-cat");
+    let d = |m: &str| format!("{:.4}", mean(&s, m, "rel_distortion_mean"));
+    let joined = |ms: &[&str]| ms.iter().map(|m| d(m)).collect::<Vec<_>>().join(" / ");
+    assert_states(
+        &readme,
+        &format!(
+            "TOSCA cat, 10 cases: default {}, skeleton — / {}, Der et al. {}, Amberg {}, floor {}.",
+            joined(&[
+                "lbo-q1",
+                "lbo-q2",
+                "skeleton-clusters-q4",
+                "skeleton-clusters-q8"
+            ]),
+            joined(&["skeleton-q2", "skeleton-q4", "skeleton-q8"]),
+            joined(&["der-q1", "der-q2", "der-q4", "der-q8"]),
+            d("amberg"),
+            d("template"),
         ),
     );
 
@@ -376,7 +419,7 @@ fn readme_result_numbers_match_the_committed_results() {
     assert_states(
         &readme,
         &format!(
-            "FBT {:.4}, Der et al. {:.4} (on the same skeleton clusters), Amberg optimal-step \
+            "FBT {:.4}, Der et al. {:.4} (on the same clusters), Amberg optimal-step \
              NICP {:.4}",
             mean(&s, "FBT", "rel_distortion_mean"),
             mean(&s, "Der-et-al", "rel_distortion_mean"),

@@ -766,8 +766,10 @@ impl FbtSpec {
         let skeleton = if self.task == FbtTask::Projection {
             self.dictionary == Some(DictionaryKind::Skeleton)
         } else {
-            matches!(self.solver.unwrap_or_default(), SolverKind::Fbt | SolverKind::Der)
-                && o.pipeline.uses_skeleton()
+            matches!(
+                self.solver.unwrap_or_default(),
+                SolverKind::Fbt | SolverKind::Der
+            ) && o.pipeline.uses_skeleton()
         };
         if !skeleton && (self.bones.is_some() || self.rig.is_some() || self.rig_poses.is_some()) {
             let key = if self.bones.is_some() {

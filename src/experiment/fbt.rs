@@ -226,11 +226,13 @@ fn class_parts(col: &Collection, fc: &FbtCase) -> Result<Vec<usize>> {
     }
     // The library's rig options (not the method's `bones`): one measuring
     // device for every method.
-    Ok(
-        skeleton_rig(&fc.examples[0], &rig, &crate::skin::rigging::RigOptions::default())?
-            .labels
-            .clone(),
-    )
+    Ok(skeleton_rig(
+        &fc.examples[0],
+        &rig,
+        &crate::skin::rigging::RigOptions::default(),
+    )?
+    .labels
+    .clone())
 }
 
 /// Runs an FBT method on a case, filling `out` (see the module docs).
@@ -259,10 +261,7 @@ pub fn run(
     let solver = spec.solver.unwrap_or_default();
     if spec.task != FbtTask::Projection && matches!(solver, SolverKind::Fbt | SolverKind::Der) {
         // The solving pipeline (Der et al. uses its rotation clusters).
-        out.set(
-            "pipeline",
-o.pipeline.name(),
-        );
+        out.set("pipeline", o.pipeline.name());
     }
     out.set(
         "dictionary",

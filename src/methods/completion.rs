@@ -25,9 +25,9 @@ use crate::data::partial::{feature_points, make_partial, PartialOptions, Partial
 use crate::mesh::Mesh;
 use crate::ops::{mass_matrix, MassKind};
 use crate::register::{
-    apply_rows, build_with_rig, circle_radii, ClusterSource, feature_circle_constraints, metrics, nicp,
-    ConstraintRows, DictionaryExamples, FbtConfig, FbtParams, InitMethod, NicpOptions, ScaleMode,
-    Schedule, StageConfig, WeightChoice,
+    apply_rows, build_with_rig, circle_radii, feature_circle_constraints, metrics, nicp,
+    ClusterSource, ConstraintRows, DictionaryExamples, FbtConfig, FbtParams, InitMethod,
+    NicpOptions, ScaleMode, Schedule, StageConfig, WeightChoice,
 };
 use crate::skin::rigging::RigOptions;
 use crate::{Error, Point, Result};

@@ -200,13 +200,12 @@ impl FbtConfig {
         matches!(
             self.cluster_source,
             ClusterSource::Skeleton | ClusterSource::SkeletonWeights
-        )
-            || self
-                .init
-                .iter()
-                .chain([&self.main])
-                .chain(self.rich.iter())
-                .any(|s| s.weights == WeightChoice::Skeleton)
+        ) || self
+            .init
+            .iter()
+            .chain([&self.main])
+            .chain(self.rich.iter())
+            .any(|s| s.weights == WeightChoice::Skeleton)
     }
 }
 
