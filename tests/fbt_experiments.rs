@@ -180,10 +180,15 @@ fn tiny_fbt_config_runs_through_the_harness() {
     );
     assert_eq!(get("template", "gross_failure"), 1.0, "the floor fails");
     let col = |m: &str, c: &str| rs.iter().find(|r| r["method"] == m).unwrap()[c].clone();
-    assert_eq!(col("completion", "pipeline"), "skeleton");
+    // q = 2 with the rig from the examples: one rig shape, so the default
+    // rule runs LBO only (the library's rule, not restated here).
+    use deformlab::methods::completion::PipelineKind;
+    let want = PipelineKind::default_for(1);
+    assert_eq!(want, PipelineKind::Lbo);
+    assert_eq!(col("completion", "pipeline"), want.name());
     assert_eq!(col("template", "pipeline"), "");
     assert!(
-        col("completion", "dictionary").ends_with("skeleton, bones by the data"),
+        col("completion", "dictionary").ends_with("LBO m = 15"),
         "{}",
         col("completion", "dictionary")
     );
@@ -364,5 +369,41 @@ fn shipped_fbt_configs_load() {
             }
             Err(e) => panic!("{}: {e}", real.display()),
         }
+    }
+}
+
+#[test]
+fn the_default_pipeline_is_one_rule_for_configs_and_the_library() {
+    use deformlab::experiment::config::FbtSpec;
+    use deformlab::methods::completion::{FbtOptions, PipelineKind, MIN_RIG_SHAPES};
+    let spec = |s: &str| -> FbtSpec { toml::from_str(s).unwrap() };
+    // The library's options and an unset config key agree.
+    assert_eq!(
+        FbtOptions::default().pipeline,
+        spec("task = \"completion\"").resolve().pipeline
+    );
+    // The rule: skeleton clusters from MIN_RIG_SHAPES rig shapes (q − 1
+    // with the rig from the examples, rig_poses with the class's), else
+    // LBO only; an explicit pipeline is kept.
+    assert_eq!(MIN_RIG_SHAPES, 3);
+    for (q, want) in [
+        (1, PipelineKind::Lbo),
+        (2, PipelineKind::Lbo),
+        (3, PipelineKind::Lbo),
+        (4, PipelineKind::SkeletonClusters),
+        (8, PipelineKind::SkeletonClusters),
+    ] {
+        let got = spec(&format!("task = \"completion\"\nq = {q}")).resolve().pipeline;
+        assert_eq!(got, want, "q = {q}");
+        assert_eq!(got, PipelineKind::default_for(q - 1));
+    }
+    let class = spec("task = \"completion\"\nq = 1\nrig = \"class\"").resolve();
+    assert_eq!(class.pipeline, PipelineKind::SkeletonClusters);
+    let two = spec("task = \"completion\"\nq = 1\nrig = \"class\"\nrig_poses = 2").resolve();
+    assert_eq!(two.pipeline, PipelineKind::Lbo);
+    let named = spec("task = \"completion\"\nq = 8\npipeline = \"skeleton\"").resolve();
+    assert_eq!(named.pipeline, PipelineKind::Skeleton);
+    for p in PipelineKind::ALL {
+        assert_eq!(PipelineKind::from_name(p.name()), Some(p));
     }
 }

@@ -71,7 +71,7 @@ CASES = {
     "landmarks shape": (lambda: dl.target_correspondence((V, F), [1], (V, F), landmarks=[1, 2, 3]), ["landmarks"]),
     "fbt no examples": (lambda: dl.FbtModel([], F), ["examples"]),
     "fbt example count": (lambda: dl.FbtModel([V, V1[:-2]], F), ["examples[1]"]),
-    "fbt skeleton needs rig": (lambda: dl.FbtModel([V], F), ["rig"]),
+    "fbt skeleton needs rig": (lambda: dl.FbtModel([V], F, pipeline="skeleton"), ["rig"]),
     "fbt pipeline": (lambda: dl.FbtModel([V, V1], F, pipeline="wavy"), ["pipeline"]),
     "register targets": (lambda: dl.register(dl.FbtModel([V, V1], F, pipeline="lbo"), ([1, 2], np.zeros((3, 3)))), ["targets"]),
     "register vertex": (lambda: dl.register(dl.FbtModel([V, V1], F, pipeline="lbo"), ([n], np.zeros((1, 3)))), ["vertices", "out of range"]),
