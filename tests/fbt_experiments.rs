@@ -393,7 +393,9 @@ fn the_default_pipeline_is_one_rule_for_configs_and_the_library() {
         (4, PipelineKind::SkeletonClusters),
         (8, PipelineKind::SkeletonClusters),
     ] {
-        let got = spec(&format!("task = \"completion\"\nq = {q}")).resolve().pipeline;
+        let got = spec(&format!("task = \"completion\"\nq = {q}"))
+            .resolve()
+            .pipeline;
         assert_eq!(got, want, "q = {q}");
         assert_eq!(got, PipelineKind::default_for(q - 1));
     }

@@ -450,11 +450,16 @@ class FbtModel:
     ``examples``: list of ``(n, 3)`` vertex arrays of one template, the
     reference first; ``F``: the template faces. The template is deformed by
     blended transformations ``P = D T`` (Eq. 3) with the example-based
-    dictionary ``D`` (LBO eigenfunctions ``m``, and the skeleton weights of
-    example-based skinning for ``pipeline="skeleton"``, learnt from ``rig``
-    poses — by default the examples after the reference), under the
-    scaled/averaged/minimal ARAP energies (Eqs. 6–16) with ``clusters``
-    rotation clusters. ``None`` keywords: the library's ``FbtOptions`` defaults.
+    dictionary ``D`` (LBO eigenfunctions ``m``), under the
+    scaled/averaged/minimal ARAP energies (Eqs. 6-16) with ``clusters``
+    rotation clusters. ``pipeline``: ``None`` is the library's default rule
+    (``"skeleton_clusters"``: the LBO stages with rotation clusters from the
+    skeleton weights of example-based skinning learnt from ``rig`` poses,
+    by default the examples after the reference, once there are 3 of them;
+    ``"lbo"`` below); ``"skeleton"`` is the paper's articulated pipeline
+    (last stage the skeleton dictionary), ``"lbo"`` LBO only,
+    ``"skeleton_dictionary"`` an ablation. Other ``None`` keywords: the
+    library's ``FbtOptions`` defaults.
     """
 
     def __init__(

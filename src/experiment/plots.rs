@@ -1004,18 +1004,28 @@ fn bars(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
     } else {
         "value".into()
     };
+    // A 0/1 column's mean is a share of the cases: no ±std whiskers (they
+    // would reach below 0 and above 1).
+    let shares = spec
+        .metrics
+        .iter()
+        .all(|m| SHARE_METRICS.contains(&m.as_str()));
     let chart = BarChart {
         title: ctx.title(spec, || {
             format!("{}: {}", ctx.title, spec.metrics.join(", "))
         }),
         caption: ctx.subtitle(
             spec,
-            format!("{}; bars: mean over cases, whiskers: ±1 std", ctx.caption),
+            if shares {
+                format!("{}; bars: share of the cases", ctx.caption)
+            } else {
+                format!("{}; bars: mean over cases, whiskers: ±1 std", ctx.caption)
+            },
         ),
         y_label,
         categories: groups.iter().map(|g| ctx.group_label(spec, g, g)).collect(),
         series,
-        errors: Some(errors),
+        errors: (!shares).then_some(errors),
         log_y: spec.log_y.unwrap_or(false),
     };
     let default = format!("bars_{}", spec.metrics.join("_"));
@@ -1025,6 +1035,9 @@ fn bars(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         ctx.config.outputs.chart_formats(spec),
     )
 }
+
+/// Columns that are 0 or 1 per case: their mean is a share.
+const SHARE_METRICS: [&str; 2] = ["gross_failure", "perm_correct"];
 
 fn trace(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
     let mut series: Vec<Series> = Vec::new();
