@@ -28,6 +28,9 @@ import os
 import re
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bdt_table import mean, num  # noqa: E402  (one definition of the cell parsing)
+
 
 def read(folder, pooled):
     path = os.path.join(folder, "cases.csv")
@@ -40,18 +43,6 @@ def read(folder, pooled):
         r["_group"] = name if pooled else r["source"]
     return rows
 
-
-def num(r, k):
-    v = r.get(k, "")
-    try:
-        return float(v)
-    except ValueError:
-        return math.nan
-
-
-def mean(xs):
-    xs = [x for x in xs if not math.isnan(x)]
-    return sum(xs) / len(xs) if xs else math.nan
 
 
 def fmt(x, d=4):

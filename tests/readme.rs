@@ -375,44 +375,38 @@ fn readme_result_numbers_match_the_committed_results() {
     // The FBT benchmark on real data (committed tables of
     // experiments/real/fbt-bench-*.toml): the default is LBO only at q = 1,
     // 2 and the skeleton clusters at q = 4, 8.
-    let s = summary("real/fbt-bench-faust");
-    let d = |m: &str| format!("{:.4}", mean(&s, m, "rel_distortion_mean"));
-    let joined = |ms: &[&str]| ms.iter().map(|m| d(m)).collect::<Vec<_>>().join(" / ");
-    assert_states(
-        &readme,
-        &format!(
-            "FAUST, 45 cases: default {}, the paper's skeleton pipeline — / {}, Der et al. {}, \
-             Amberg NICP {}, floor {}.",
-            joined(&[
-                "lbo-q1",
-                "lbo-q2",
-                "skeleton-clusters-q4",
-                "skeleton-clusters-q8"
-            ]),
-            joined(&["skeleton-q2", "skeleton-q4", "skeleton-q8"]),
-            joined(&["der-q1", "der-q2", "der-q4", "der-q8"]),
-            d("amberg"),
-            d("template"),
-        ),
+    let bench = |name: &str, intro: &str, skeleton: &str, amberg: &str| {
+        let s = summary(name);
+        let d = |m: &str| format!("{:.4}", mean(&s, m, "rel_distortion_mean"));
+        let joined = |ms: &[&str]| ms.iter().map(|m| d(m)).collect::<Vec<_>>().join(" / ");
+        assert_states(
+            &readme,
+            &format!(
+                "{intro} default {}, {skeleton} — / {}, Der et al. {}, {amberg} {}, floor {}.",
+                joined(&[
+                    "lbo-q1",
+                    "lbo-q2",
+                    "skeleton-clusters-q4",
+                    "skeleton-clusters-q8"
+                ]),
+                joined(&["skeleton-q2", "skeleton-q4", "skeleton-q8"]),
+                joined(&["der-q1", "der-q2", "der-q4", "der-q8"]),
+                d("amberg"),
+                d("template"),
+            ),
+        );
+    };
+    bench(
+        "real/fbt-bench-faust",
+        "FAUST, 45 cases:",
+        "the paper's skeleton pipeline",
+        "Amberg NICP",
     );
-    let s = summary("real/fbt-bench-tosca-cat");
-    let d = |m: &str| format!("{:.4}", mean(&s, m, "rel_distortion_mean"));
-    let joined = |ms: &[&str]| ms.iter().map(|m| d(m)).collect::<Vec<_>>().join(" / ");
-    assert_states(
-        &readme,
-        &format!(
-            "TOSCA cat, 10 cases: default {}, skeleton — / {}, Der et al. {}, Amberg {}, floor {}.",
-            joined(&[
-                "lbo-q1",
-                "lbo-q2",
-                "skeleton-clusters-q4",
-                "skeleton-clusters-q8"
-            ]),
-            joined(&["skeleton-q2", "skeleton-q4", "skeleton-q8"]),
-            joined(&["der-q1", "der-q2", "der-q4", "der-q8"]),
-            d("amberg"),
-            d("template"),
-        ),
+    bench(
+        "real/fbt-bench-tosca-cat",
+        "TOSCA cat, 10 cases:",
+        "skeleton",
+        "Amberg",
     );
 
     let s = summary("fbt-fig7-baselines");
