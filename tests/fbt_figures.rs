@@ -32,11 +32,11 @@ fbt = { task = "projection", q = 2, m = 10 }
 [[methods]]
 name = "skel-q1"
 kind = "fbt"
-fbt = { task = "projection", q = 1, dictionary = "skeleton" }
+fbt = { task = "projection", q = 1, dictionary = "skeleton", rig = "class" }
 [[methods]]
 name = "skel-q2"
 kind = "fbt"
-fbt = { task = "projection", q = 2, dictionary = "skeleton" }
+fbt = { task = "projection", q = 2, dictionary = "skeleton", rig = "class" }
 
 [[outputs.plots]]
 kind = "pivot"
