@@ -706,10 +706,11 @@ impl FbtSpec {
             rig: self.rig.unwrap_or(d.rig),
             rig_poses: self.rig_poses.unwrap_or(d.rig_poses),
             pipeline: self.pipeline.unwrap_or_else(|| {
-                PipelineKind::default_for(match self.rig.unwrap_or(d.rig) {
-                    RigSource::Class => self.rig_poses.unwrap_or(d.rig_poses),
-                    RigSource::Examples => self.q.unwrap_or(d.q) - 1,
-                })
+                PipelineKind::default_for(
+                    self.rig
+                        .unwrap_or(d.rig)
+                        .shape_count(self.q.unwrap_or(d.q), self.rig_poses.unwrap_or(d.rig_poses)),
+                )
             }),
             clusters: self.clusters.unwrap_or(d.clusters),
             scale: self.scale.unwrap_or(d.scale),
@@ -743,6 +744,16 @@ impl FbtSpec {
         }
     }
 
+    /// Whether the method solves with an FBT pipeline (FBT itself, or Der
+    /// et al. on its rotation clusters; not the projection task).
+    pub fn solves_with_pipeline(&self) -> bool {
+        self.task != FbtTask::Projection
+            && matches!(
+                self.solver.unwrap_or_default(),
+                SolverKind::Fbt | SolverKind::Der
+            )
+    }
+
     /// Checks the options; errors are `(key, message)` relative to the
     /// method's `fbt` table.
     pub fn check(&self) -> std::result::Result<(), (String, String)> {
@@ -766,10 +777,7 @@ impl FbtSpec {
         let skeleton = if self.task == FbtTask::Projection {
             self.dictionary == Some(DictionaryKind::Skeleton)
         } else {
-            matches!(
-                self.solver.unwrap_or_default(),
-                SolverKind::Fbt | SolverKind::Der
-            ) && o.pipeline.uses_skeleton()
+            self.solves_with_pipeline() && o.pipeline.uses_skeleton()
         };
         if !skeleton && (self.bones.is_some() || self.rig.is_some() || self.rig_poses.is_some()) {
             let key = if self.bones.is_some() {

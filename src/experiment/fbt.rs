@@ -259,7 +259,7 @@ pub fn run(
     }
     let m = o.m;
     let solver = spec.solver.unwrap_or_default();
-    if spec.task != FbtTask::Projection && matches!(solver, SolverKind::Fbt | SolverKind::Der) {
+    if spec.solves_with_pipeline() {
         // The solving pipeline (Der et al. uses its rotation clusters).
         out.set("pipeline", o.pipeline.name());
     }

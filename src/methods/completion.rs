@@ -125,15 +125,14 @@ pub struct FbtOptions {
 impl Default for FbtOptions {
     fn default() -> Self {
         let config = FbtConfig::default();
-        let q = 4;
+        let (q, rig_poses) = (4, 4);
         FbtOptions {
             q,
             m: 10,
             bones: config.rig.bones,
             rig: RigSource::default(),
-            rig_poses: 4,
-            // The rig of the default `rig = examples`: the q − 1 others.
-            pipeline: PipelineKind::default_for(q - 1),
+            rig_poses,
+            pipeline: PipelineKind::default_for(RigSource::default().shape_count(q, rig_poses)),
             clusters: config.clusters,
             scale: 1.5,
             alpha: None,
@@ -899,6 +898,16 @@ impl RigSource {
         match self {
             RigSource::Examples => "examples",
             RigSource::Class => "class",
+        }
+    }
+
+    /// How many shapes besides the reference the rig is learnt from with
+    /// `q` examples and `rig_poses` class shapes (at most: a small class
+    /// may have fewer).
+    pub fn shape_count(self, q: usize, rig_poses: usize) -> usize {
+        match self {
+            RigSource::Examples => q.saturating_sub(1),
+            RigSource::Class => rig_poses,
         }
     }
 }

@@ -99,8 +99,8 @@ pub enum ClusterSource {
     /// (r = the number of bones; `clusters` is not used).
     Skeleton,
     /// k-means (r clusters) on the skeleton weights, whichever stages use
-    /// them (the paper's clusters without its skeleton dictionary: an
-    /// ablation).
+    /// them: the paper's clusters without its skeleton dictionary (the
+    /// harness's default pipeline once the rig has enough shapes).
     SkeletonWeights,
 }
 
