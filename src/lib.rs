@@ -41,6 +41,7 @@ pub mod mesh;
 pub mod methods;
 pub mod ops;
 pub mod plot;
+pub mod range;
 pub mod register;
 pub mod skin;
 pub mod solve;

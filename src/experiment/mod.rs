@@ -21,7 +21,7 @@ pub mod load;
 pub mod lock;
 pub mod manifest;
 pub mod plots;
-pub mod range;
+pub use crate::range;
 pub mod record;
 pub mod runner;
 pub mod store;

@@ -37,6 +37,8 @@
 pub mod clustering;
 pub mod completion;
 pub mod keypoints;
+pub mod registry;
+pub mod spec;
 pub mod target;
 pub mod transfer;
 
@@ -44,6 +46,8 @@ pub use clustering::{Clustering, ClusteringOutcome, Examples};
 pub use keypoints::{
     extremity_keypoints, random_keypoints, KeypointSource, PickedKeypoints, Pool, Strategy,
 };
+pub use registry::{resolve_entry, Family, KindInfo, Method, MethodKind, NamedMethod};
+pub use spec::{FbtSpec, FbtTask, MethodEntry, PipelineSpec};
 pub use target::{TargetCorrespondence, TargetFound, TargetPoints};
 pub use transfer::{
     match_translation, BdtOptions, TransferCase, TransferMethod, TransferOutcome, TransferTimings,
