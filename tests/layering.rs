@@ -183,6 +183,8 @@ fn top_level_modules_import_only_lower_layers() {
         // Metrics and plots sit low: the algorithms report residuals with them.
         ("eval", 2),
         ("plot", 3),
+        // Option ranges (serde): above the data's limits they name.
+        ("range", 3),
         ("skin", 2),
         ("data", 2),
         ("ops", 1),

@@ -213,7 +213,7 @@ fn config_keys_are_validated_and_named() {
         p,
     )
     .unwrap();
-    let Method::Transfer(TransferMethod::Sumner { target: t, .. }) = &ok.methods[0].method else {
+    let Method::Transfer(TransferMethod::Markers { target: t, .. }) = &ok.methods[0].method else {
         panic!("{:?}", ok.methods[0].method)
     };
     assert_eq!(t.correspondence, TargetCorrespondence::Auto);

@@ -21,6 +21,7 @@ semi-definite (``cotmatrix(V, F) == -igl.cotmatrix(V, F)``).
 
 from __future__ import annotations
 
+import json
 import os
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
@@ -53,10 +54,19 @@ __all__ = [
     "synthetic",
     "TRANSFER_METHODS",
     "COMPLETION_SOLVERS",
+    "method_kinds",
 ]
 
-#: Transfer methods, by the configs' ``kind`` names.
-TRANSFER_METHODS = ("bdt", "sumner", "cage", "sumner_oracle", "identity")
+def method_kinds() -> List[Dict[str, Any]]:
+    """The registry of method kinds (as ``deformlab methods`` prints it):
+    per kind its ``name`` (a config's ``kind``, ``transfer(method=...)``),
+    ``family`` (``"transfer"``, ``"clustering"``, ``"fbt"``) and the option
+    ``keys`` it takes."""
+    return [{"name": n, "family": f, "keys": list(k)} for n, f, k in _native.method_kinds()]
+
+
+#: Transfer methods, by the configs' ``kind`` names (read from the registry).
+TRANSFER_METHODS = tuple(k["name"] for k in method_kinds() if k["family"] == "transfer")
 #: Completion solvers, by the configs' ``solver`` names (FBT and baselines).
 COMPLETION_SOLVERS = ("fbt", "der", "amberg", "template")
 
@@ -356,17 +366,7 @@ def transfer(
     correspondence: Optional[str] = None,
     landmarks: Any = None,
     method: Optional[str] = None,
-    n_candidates: Optional[int] = None,
-    seed: Optional[int] = None,
-    epsilon: Optional[float] = None,
-    max_keypoints: Optional[int] = None,
-    mode: Optional[str] = None,
-    error_norm: Optional[str] = None,
-    weights: Optional[str] = None,
-    frame: Optional[str] = None,
-    target_weights: Optional[str] = None,
-    refine: Optional[bool] = None,
-    align: Optional[str] = None,
+    **options: Any,
 ) -> Dict[str, Any]:
     """Deformation transfer ``A → A′_j`` onto ``B``, as ``deformlab transfer``.
 
@@ -384,10 +384,17 @@ def transfer(
     share connectivity) or ``"auto"`` (registration of A onto B, any
     connectivity; ``landmarks``: optional ``(k, 2)`` vertex pairs guiding it).
 
-    Baselines through the same method values as the configs' ``kind``:
+    ``method`` is any transfer kind of the registry (``TRANSFER_METHODS``,
+    ``method_kinds()``): ``"bdt"``, ``"bdt_random"``, ``"bdt_extremity"``,
     ``"sumner"`` (Sumner & Popović with the key point pairs as markers),
     ``"cage"`` (cage DT), ``"sumner_oracle"`` (identity triangle
-    correspondence), ``"identity"`` (B unchanged).
+    correspondence), ``"identity"`` (B unchanged). ``options`` are the
+    keys of a config's ``[[methods]]`` entry of that kind (``n_candidates``,
+    ``seed``, ``epsilon``, ``max_keypoints``, ``mode``, ``error_norm``,
+    ``weights``, ``frame``, ``align``, ``target_weights``, ``refine``,
+    ``count``, ...), checked against the same table and ranges: a key the
+    kind does not use is a ``ValueError`` naming it. ``None`` means the
+    library's default.
 
     Returns a dict: ``meshes`` (list of float64 ``(n_B, 3)``, one B′ per pose;
     faces are B's), ``keypoints``, ``target_keypoints``, ``fit_error`` and
@@ -406,15 +413,26 @@ def transfer(
     if method is not None and method not in TRANSFER_METHODS:
         raise ValueError(f"method: unknown transfer method {method!r}; expected one of {', '.join(TRANSFER_METHODS)}")
     lm = None if landmarks is None else _pairs(landmarks, "landmarks")
+    opts = {k: _option_value(k, v) for k, v in options.items() if v is not None}
     r = _native.transfer(
         AV, AF, poses, BV, BF, target_keypoints=tk, keypoints=kp, correspondence=correspondence,
-        landmarks=lm, method=method, n_candidates=n_candidates, seed=seed, epsilon=epsilon,
-        max_keypoints=max_keypoints, mode=mode, error_norm=error_norm, weights=weights,
-        frame=frame, target_weights=target_weights, refine=refine, align=align,
+        landmarks=lm, method=method, options=json.dumps(opts),
     )
     if "transforms" in r:
         r["transforms"] = _transforms(r["transforms"], len(poses))
     return r
+
+
+def _option_value(key: str, v: Any) -> Any:
+    """A keyword option as JSON: numpy scalars as Python numbers; NaN and
+    infinities refused here (JSON has none)."""
+    if isinstance(v, np.generic):
+        v = v.item()
+    if isinstance(v, float) and not np.isfinite(v):
+        raise ValueError(f"{key}: expected a finite number, got {v!r}")
+    if not isinstance(v, (bool, int, float, str)):
+        raise ValueError(f"{key}: expected a number, a string or a bool, got {type(v).__name__}")
+    return v
 
 
 def target_correspondence(

@@ -16,6 +16,7 @@ MeshLike = Tuple[npt.ArrayLike, npt.ArrayLike]
 PathLike = Union[str, os.PathLike]
 
 TRANSFER_METHODS: Tuple[str, ...]
+def method_kinds() -> List[Dict[str, Any]]: ...
 COMPLETION_SOLVERS: Tuple[str, ...]
 
 class Offenders(TypedDict):
@@ -117,16 +118,7 @@ def transfer(
     correspondence: Optional[str] = None,
     landmarks: Optional[npt.ArrayLike] = None,
     method: Optional[str] = None,
-    n_candidates: Optional[int] = None,
-    seed: Optional[int] = None,
-    epsilon: Optional[float] = None,
-    max_keypoints: Optional[int] = None,
-    mode: Optional[str] = None,
-    error_norm: Optional[str] = None,
-    weights: Optional[str] = None,
-    frame: Optional[str] = None,
-    target_weights: Optional[str] = None,
-    refine: Optional[bool] = None,
+    **options: Any,
 ) -> TransferResult: ...
 def target_correspondence(
     A: MeshLike,

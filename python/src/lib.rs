@@ -28,7 +28,8 @@ use deformlab::methods::completion::{
     CompletionProblem, CompletionSolver, FbtOptions, FeatureOptions, PipelineKind, SolverKind,
 };
 use deformlab::methods::{
-    BdtOptions, KeypointSource, TargetCorrespondence, TargetPoints, TransferCase, TransferMethod,
+    entry_from_table, resolve_entry, Family, KeypointSource, Method, MethodKind, PipelineSpec,
+    TargetCorrespondence, TargetPoints, TransferCase, TransferMethod,
 };
 use deformlab::ops::heat::{HeatGeodesics, HeatOptions};
 use deformlab::ops::{cotan_laplacian, farthest_point_sampling, mass_matrix, FpsMetric, MassKind};
@@ -36,9 +37,7 @@ use deformlab::register::{vertex_rows, FbtSetup, Schedule};
 use deformlab::skin::bbw::{bounded_biharmonic_weights, BbwOptions, WeightMode};
 use deformlab::solve::{generalized_eigen, EigenOptions};
 use deformlab::transfer::keypoints::{ErrorNorm, KeypointOptions, SelectionMode};
-use deformlab::transfer::{
-    auto_correspondence, AutoOptions, FrameAlign, TargetWeights, TransferFrame,
-};
+use deformlab::transfer::{auto_correspondence, AutoOptions};
 use deformlab::{Error, Mesh, Point};
 
 // ---------------------------------------------------------------------------
@@ -630,48 +629,70 @@ fn select_keypoints<'py>(
     Ok(d)
 }
 
-/// A transfer method by its config `kind`, with its key points and target
-/// points.
-fn transfer_method(
-    method: &str,
-    keypoints: KeypointSource,
-    target: TargetPoints,
-    options: BdtOptions,
-) -> PyResult<TransferMethod> {
-    Ok(match method {
-        "bdt" => TransferMethod::Bdt {
-            keypoints,
-            target,
-            options,
-        },
-        "sumner" => TransferMethod::Sumner {
-            keypoints,
-            target,
-            options: options.keypoints,
-        },
-        "cage" => TransferMethod::Cage {
-            keypoints,
-            target,
-            options: options.keypoints,
-        },
-        "sumner_oracle" => TransferMethod::SumnerOracle,
-        "identity" => TransferMethod::Identity,
-        other => {
-            return Err(value_err(format!(
-                "method: unknown transfer method {other:?}; expected one of bdt, sumner, cage, \
-                 sumner_oracle, identity"
-            )))
+/// The method entry of a keyword-option call, resolved through the
+/// registry exactly like a config's `[[methods]]` entry: `options` is a
+/// JSON object of entry keys (Python `None`s dropped by the caller).
+fn method_from_options(kind: &str, options: Option<&str>) -> PyResult<TransferMethod> {
+    let mut table = toml::Table::new();
+    if let Some(text) = options {
+        let json: serde_json::Value = serde_json::from_str(text)
+            .map_err(|e| value_err(format!("options: not a JSON object ({e})")))?;
+        let serde_json::Value::Object(map) = json else {
+            return Err(value_err(
+                "options: expected a mapping of option names to values",
+            ));
+        };
+        for (k, v) in map {
+            if v.is_null() {
+                continue;
+            }
+            let v = toml::Value::try_from(&v).map_err(|e| value_err(format!("{k}: {e}")))?;
+            table.insert(k, v);
         }
-    })
+    }
+    let entry = entry_from_table(kind, &table).map_err(|(k, msg)| {
+        value_err(if k.is_empty() {
+            format!("method: {msg}")
+        } else {
+            format!("{k}: {msg}")
+        })
+    })?;
+    match resolve_entry(
+        &entry,
+        &PipelineSpec::default(),
+        KeypointOptions::default().seed,
+    ) {
+        Ok(Method::Transfer(m)) => Ok(m),
+        Ok(_) => Err(value_err(format!(
+            "method: {kind:?} is not a transfer method (see deformlab.method_kinds())"
+        ))),
+        Err((k, msg)) => Err(value_err(format!("{k}: {msg} (method {kind:?})"))),
+    }
+}
+
+/// The registry of method kinds: `(name, family, keys)` per kind.
+#[pyfunction]
+fn method_kinds() -> Vec<(&'static str, &'static str, Vec<&'static str>)> {
+    MethodKind::ALL
+        .iter()
+        .map(|k| {
+            let i = k.info();
+            let family = match i.family {
+                Family::Transfer => "transfer",
+                Family::Clustering => "clustering",
+                Family::Fbt => "fbt",
+            };
+            (i.name, family, i.key_list())
+        })
+        .collect()
 }
 
 /// Deformation transfer through `TransferMethod::run` (the entry point of
-/// `deformlab transfer` and of the harness).
+/// `deformlab transfer` and of the harness), the method resolved through
+/// the registry from its kind and keyword options.
 #[pyfunction]
 #[pyo3(signature = (av, af, poses, bv, bf, target_keypoints=None, keypoints=None,
-    correspondence=None, landmarks=None, method=None, n_candidates=None, seed=None,
-    epsilon=None, max_keypoints=None, mode=None, error_norm=None, weights=None,
-    frame=None, target_weights=None, refine=None, align=None))]
+    correspondence=None, landmarks=None, method=None, options=None))]
 #[allow(clippy::too_many_arguments)]
 fn transfer<'py>(
     py: Python<'py>,
@@ -685,41 +706,45 @@ fn transfer<'py>(
     correspondence: Option<&str>,
     landmarks: Option<Vec<(i64, i64)>>,
     method: Option<&str>,
-    n_candidates: Option<i64>,
-    seed: Option<u64>,
-    epsilon: Option<f64>,
-    max_keypoints: Option<i64>,
-    mode: Option<&str>,
-    error_norm: Option<&str>,
-    weights: Option<&str>,
-    frame: Option<&str>,
-    target_weights: Option<&str>,
-    refine: Option<bool>,
-    align: Option<&str>,
+    options: Option<&str>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let kind = method.unwrap_or(MethodKind::Bdt.name());
+    let mut m = method_from_options(kind, options)?;
     let (a, a_def) = source_and_poses(&av, &af, &poses)?;
     let b = mesh("B", &bv, &bf)?;
-    let opts = keypoint_options(
-        n_candidates,
-        seed,
-        epsilon,
-        max_keypoints,
-        mode,
-        error_norm,
-        weights,
-        a.n_vertices(),
-    )?;
-    let source = match &keypoints {
-        Some(k) => {
-            if k.is_empty() {
-                return Err(value_err("keypoints: expected at least one key point"));
+    let Some((source_kp, target_points, opts)) = m.keypoint_inputs_mut() else {
+        for (name, set) in [
+            ("keypoints", keypoints.is_some()),
+            ("target_keypoints", target_keypoints.is_some()),
+            ("correspondence", correspondence.is_some()),
+            ("landmarks", landmarks.is_some()),
+        ] {
+            if set {
+                return Err(value_err(format!(
+                    "{name}: does not apply to method {kind:?} (it takes no key points)"
+                )));
             }
-            KeypointSource::Given(indices("keypoints", k, a.n_vertices())?)
         }
-        None => KeypointSource::Automatic {
-            selection_poses: None,
-        },
+        return transfer_result(py, &m, &a, &a_def, &b);
     };
+    if opts.n_candidates > a.n_vertices() {
+        return Err(value_err(format!(
+            "n_candidates: {} exceeds the {} vertices of the source",
+            opts.n_candidates,
+            a.n_vertices()
+        )));
+    }
+    if let Some(k) = &keypoints {
+        if k.is_empty() {
+            return Err(value_err("keypoints: expected at least one key point"));
+        }
+        if !matches!(source_kp, KeypointSource::Automatic { .. }) {
+            return Err(value_err(format!(
+                "keypoints: method {kind:?} picks its own key points; drop one of them"
+            )));
+        }
+        *source_kp = KeypointSource::Given(indices("keypoints", k, a.n_vertices())?);
+    }
     let corr = match (correspondence, &target_keypoints) {
         (Some(_), Some(_)) => {
             return Err(value_err(
@@ -761,38 +786,21 @@ fn transfer<'py>(
         }
         None => Vec::new(),
     };
-    let d = BdtOptions::default();
-    let options = BdtOptions {
-        keypoints: opts.clone(),
-        frame: match frame {
-            Some(s) => parse_enum::<TransferFrame>("frame", s)?,
-            None => d.frame,
-        },
-        align: match align {
-            Some(s) => parse_enum::<FrameAlign>("align", s)?,
-            None => d.align,
-        },
-        target_weights: match target_weights {
-            Some(s) => parse_enum::<TargetWeights>("target_weights", s)?,
-            None => d.target_weights,
-        },
-        refine: refine.unwrap_or(d.refine),
-    };
-    let target = TargetPoints {
-        correspondence: corr,
-        landmarks: lm,
-        seed: opts.seed,
-        ..TargetPoints::default()
-    };
-    let m = transfer_method(method.unwrap_or("bdt"), source, target, options)?;
+    target_points.correspondence = corr;
+    target_points.landmarks = lm;
+    transfer_result(py, &m, &a, &a_def, &b)
+}
+
+/// Runs `m` and returns the binding's result dictionary.
+fn transfer_result<'py>(
+    py: Python<'py>,
+    m: &TransferMethod,
+    a: &Mesh,
+    a_def: &[Mesh],
+    b: &Mesh,
+) -> PyResult<Bound<'py, PyDict>> {
     let out = py
-        .detach(|| {
-            m.run(&TransferCase {
-                a: &a,
-                a_def: &a_def,
-                b: &b,
-            })
-        })
+        .detach(|| m.run(&TransferCase { a, a_def, b }))
         .map_err(py_err)?;
     let d = PyDict::new(py);
     let meshes = PyList::empty(py);
@@ -1243,6 +1251,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bbw, m)?)?;
     m.add_function(wrap_pyfunction!(select_keypoints, m)?)?;
     m.add_function(wrap_pyfunction!(transfer, m)?)?;
+    m.add_function(wrap_pyfunction!(method_kinds, m)?)?;
     m.add_function(wrap_pyfunction!(target_correspondence, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(synthetic, m)?)?;

@@ -132,3 +132,63 @@ def test_weight_mode_default_is_one(cli, synthetic_files, tmp_path):
     for cmd in ("keypoints", "transfer", "weights"):
         text = " ".join(_run(cli, cmd, "--help").stdout.split())
         assert "[default: the library's, per-handle]" in text, f"{cmd} --help"
+
+
+# Options per transfer kind, as the keys of a config entry (`--opt` on the CLI).
+_KIND_OPTIONS = {
+    "bdt": {"n_candidates": 24, "max_keypoints": 6},
+    "bdt_random": {"count": 5, "seed": 3},
+    "bdt_extremity": {"count": 5, "strategy": "centroid_fps"},
+    "sumner": {"n_candidates": 24, "max_keypoints": 6},
+    "cage": {"n_candidates": 24, "max_keypoints": 6},
+    "sumner_oracle": {},
+    "identity": {},
+}
+
+
+def test_every_transfer_kind_equals_cli(cli, synthetic_files, tmp_path):
+    """Every transfer kind of the registry: `dl.transfer(..., method=k, **options)`
+    vs `deformlab transfer --method k --opt key=value`: the same B′."""
+    assert set(dl.TRANSFER_METHODS) == set(_KIND_OPTIONS), dl.TRANSFER_METHODS
+    d = synthetic_files
+    A = dl.read_mesh(d / "s0p0.ply")
+    poses = [dl.read_mesh(d / "s0p1.ply")[0]]
+    B = dl.read_mesh(d / "s1p0.ply")
+    diffs = {}
+    for kind, opts in _KIND_OPTIONS.items():
+        out = tmp_path / kind
+        flags = [] if kind in ("identity", "sumner_oracle") else ["--same-connectivity"]
+        for k, v in opts.items():
+            flags += ["--opt", f"{k}={v}"]
+        _run(cli, "transfer", "--source", d / "s0p0.ply", "--deformed", d / "s0p1.ply",
+             "--target", d / "s1p0.ply", "--method", kind, *flags, "--out", out)
+        corr = {} if kind in ("identity", "sumner_oracle") else {"correspondence": "identity"}
+        r = dl.transfer(A, poses, B, method=kind, **corr, **opts)
+        assert r["method"] == kind
+        Vc, _ = dl.read_mesh(out / "s0p1_to_s1p0.ply")
+        diffs[kind] = float(np.abs(Vc - r["meshes"][0]).max())
+        if kind != "identity":
+            assert float(np.abs(r["meshes"][0] - B[0]).max()) > 1e-3, kind
+    print(f"\nCLI equality per kind: max |B'_python - B'_cli| {diffs}")
+    assert max(diffs.values()) == 0.0
+
+
+def test_method_options_are_checked_against_the_registry(synthetic_files):
+    d = synthetic_files
+    A = dl.read_mesh(d / "s0p0.ply")
+    poses = [dl.read_mesh(d / "s0p1.ply")[0]]
+    B = dl.read_mesh(d / "s1p0.ply")
+    kinds = {k["name"]: k for k in dl.method_kinds()}
+    assert "lambda" in kinds["bdt"]["keys"] and kinds["identity"]["keys"] == []
+    with pytest.raises(ValueError, match=r"lambda.*does not apply to kind = \"identity\""):
+        dl.transfer(A, poses, B, method="identity", **{"lambda": 0.3})
+    with pytest.raises(ValueError, match=r"frame.*does not apply to kind = \"sumner\""):
+        dl.transfer(A, poses, B, method="sumner", frame="raw")
+    with pytest.raises(ValueError, match=r"no_such_key"):
+        dl.transfer(A, poses, B, no_such_key=1)
+    with pytest.raises(ValueError, match=r"epsilon"):
+        dl.transfer(A, poses, B, epsilon=-1.0)
+    with pytest.raises(ValueError, match=r"count"):
+        dl.transfer(A, poses, B, method="bdt_random")
+    with pytest.raises(ValueError, match=r"unknown transfer method"):
+        dl.transfer(A, poses, B, method="clustering")

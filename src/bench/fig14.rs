@@ -14,7 +14,10 @@ use std::path::Path;
 use crate::experiment::parse_config;
 use crate::experiment::record::{owned, CaseMeshes};
 use crate::experiment::{generate_cases, Collection, Method};
-use crate::methods::{KeypointSource, TargetPoints, TransferCase, TransferMethod};
+use crate::methods::{
+    cage_markers, sumner_markers, KeypointSource, MarkerBaseline, TargetPoints, TransferCase,
+    TransferMethod,
+};
 use crate::register::metrics::median;
 use crate::{Error, Result};
 
@@ -65,12 +68,20 @@ pub fn run(quick: bool) -> Result<String> {
         let per_pose = |s: Option<f64>| s.unwrap_or(f64::NAN) / a_def.len().max(1) as f64;
         let kp = keypoints.pick(a, &a_def, options)?.keypoints;
         let given = KeypointSource::Given(kp);
-        let sumner = TransferMethod::Sumner {
+        let sumner = TransferMethod::Markers {
+            baseline: MarkerBaseline {
+                name: "sumner",
+                run: sumner_markers,
+            },
             keypoints: given.clone(),
             target: TargetPoints::default(),
             options: options.clone(),
         };
-        let cage = TransferMethod::Cage {
+        let cage = TransferMethod::Markers {
+            baseline: MarkerBaseline {
+                name: "cage",
+                run: cage_markers,
+            },
             keypoints: given,
             target: TargetPoints::default(),
             options: options.clone(),

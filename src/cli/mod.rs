@@ -145,6 +145,9 @@ pub enum Command {
     /// Regenerate the plots of results folders from their CSVs and meshes
     /// (with --config, as a config file's [outputs] now say).
     Plot(plot::PlotArgs),
+    /// Print the registry of method kinds and the keys each uses (Markdown;
+    /// docs/methods.md is this output).
+    Methods,
 }
 
 /// Runs a parsed command line.
@@ -180,5 +183,9 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Run(a) => run::run(a),
         Command::Merge(a) => merge::run(a),
         Command::Plot(a) => plot::run(a),
+        Command::Methods => {
+            print!("{}", deformlab::methods::registry::reference_markdown());
+            Ok(ExitCode::SUCCESS)
+        }
     }
 }

@@ -30,8 +30,10 @@ use deformlab::data::correspondence::{check_pairs, pair_map, read_pairs, PairFor
 use deformlab::experiment::range::Int;
 use deformlab::mesh::io::write_ply;
 use deformlab::methods::{
-    BdtOptions, KeypointSource, TargetCorrespondence, TargetPoints, TransferCase, TransferMethod,
+    entry_from_table, resolve_entry, BdtOptions, Family, KeypointSource, Method, MethodKind,
+    PipelineSpec, TargetCorrespondence, TransferCase, TransferMethod,
 };
+use deformlab::transfer::KeypointOptions;
 use deformlab::transfer::{FrameAlign, TargetWeights, TransferFrame};
 use deformlab::{Error, Mesh, Result};
 
@@ -118,9 +120,173 @@ pub struct TransferArgs {
     /// Refine each B′ with handle-constrained reduced ARAP on B.
     #[arg(long)]
     pub refine: bool,
+    /// The transfer method, a kind of the registry (`deformlab methods`):
+    /// bdt, bdt_random, bdt_extremity, sumner, cage, sumner_oracle, identity.
+    #[arg(long, default_value = "bdt", value_parser = transfer_kind)]
+    pub method: String,
+    /// A key of the method, as in a config's `[[methods]]` entry (repeat it):
+    /// `--opt count=8 --opt pool=vertices`; the value is TOML (a bare word is a
+    /// string). Keys the method does not use are refused.
+    #[arg(long = "opt", value_name = "KEY=VALUE")]
+    pub opts: Vec<String>,
     /// Overwrite existing outputs.
     #[arg(long)]
     pub force: bool,
+}
+
+/// `--method identity` / `sumner_oracle` take no key points: the flags that
+/// give or match them do not apply.
+fn refuse_keypoint_flags(a: &TransferArgs) -> Result<()> {
+    for (flag, set) in [
+        ("--keypoints", a.keypoints.is_some()),
+        ("--correspondence", a.correspondence.is_some()),
+        ("--same-connectivity", a.same_connectivity),
+        ("--target-keypoints", a.target_keypoints.is_some()),
+        ("--auto-correspondence", a.auto_correspondence),
+    ] {
+        if set {
+            return Err(Error::invalid(format!(
+                "{flag} does not apply to --method {} (it takes no key points)",
+                a.method
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// `--method`: the name of a transfer kind of the registry.
+fn transfer_kind(s: &str) -> std::result::Result<String, String> {
+    match MethodKind::from_name(s) {
+        Some(k) if k.info().family == Family::Transfer => Ok(s.to_string()),
+        _ => Err(format!(
+            "expected a transfer method: {}",
+            MethodKind::ALL
+                .iter()
+                .filter(|k| k.info().family == Family::Transfer)
+                .map(|k| k.name())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )),
+    }
+}
+
+/// The method entry of the command line: `--method`, the selection and
+/// transfer flags under their config keys, then `--opt KEY=VALUE`; resolved
+/// through the registry like a config's `[[methods]]` entry.
+fn method_of(a: &TransferArgs) -> Result<TransferMethod> {
+    fn value<T: serde::Serialize>(v: &T) -> toml::Value {
+        toml::Value::try_from(v).unwrap_or_else(|_| toml::Value::String(String::new()))
+    }
+    let s = &a.select;
+    let mut t = toml::Table::new();
+    let flags: [(&str, &str, Option<toml::Value>); 11] = [
+        (
+            "--candidates",
+            "n_candidates",
+            s.candidates.map(|v| value(&v)),
+        ),
+        ("--seed", "seed", s.seed.map(|v| value(&v))),
+        ("--epsilon", "epsilon", s.epsilon.map(|v| value(&v))),
+        (
+            "--max-keypoints",
+            "max_keypoints",
+            s.max_keypoints.map(|v| value(&v)),
+        ),
+        ("--mode", "mode", s.mode.map(|v| value(&v))),
+        (
+            "--error-norm",
+            "error_norm",
+            s.error_norm.map(|v| value(&v)),
+        ),
+        ("--weights", "weights", s.weights.map(|v| value(&v))),
+        ("--frame", "frame", a.frame.map(|v| value(&v))),
+        ("--align", "align", a.align.map(|v| value(&v))),
+        (
+            "--target-weights",
+            "target_weights",
+            a.target_weights.map(|v| value(&v)),
+        ),
+        (
+            "--refine",
+            "refine",
+            a.refine.then_some(toml::Value::Boolean(true)),
+        ),
+    ];
+    let mut flag_of = std::collections::BTreeMap::new();
+    for (flag, key, v) in flags {
+        if let Some(v) = v {
+            t.insert(key.into(), v);
+            flag_of.insert(key.to_string(), flag.to_string());
+        }
+    }
+    for o in &a.opts {
+        let Some((k, v)) = o.split_once('=') else {
+            return Err(Error::invalid(format!(
+                "--opt {o:?}: expected KEY=VALUE (e.g. --opt count=8)"
+            )));
+        };
+        let k = k.trim();
+        if matches!(k, "name" | "kind" | "group" | "label") {
+            return Err(Error::invalid(format!(
+                "--opt {k}: not a method option (the method is --method)"
+            )));
+        }
+        if k == "target_correspondence" {
+            return Err(Error::invalid(
+                "--opt target_correspondence: the command line matches key points with \
+                 --same-connectivity, --target-keypoints, --correspondence or \
+                 --auto-correspondence",
+            ));
+        }
+        if let Some(flag) = flag_of.get(k) {
+            return Err(Error::invalid(format!(
+                "--opt {k} repeats {flag}; give it once"
+            )));
+        }
+        if t.contains_key(k) {
+            return Err(Error::invalid(format!("--opt {k} is given twice")));
+        }
+        let v = v.trim();
+        let parsed = toml::from_str::<toml::Table>(&format!("v = {v}"))
+            .ok()
+            .and_then(|mut t| t.remove("v"))
+            .unwrap_or_else(|| toml::Value::String(v.to_string()));
+        t.insert(k.to_string(), parsed);
+        flag_of.insert(k.to_string(), format!("--opt {k}"));
+    }
+    let named = |key: &str| {
+        flag_of
+            .get(key)
+            .cloned()
+            .unwrap_or_else(|| format!("--opt {key}"))
+    };
+    t.remove("name");
+    t.remove("kind");
+    let entry = entry_from_table(&a.method, &t).map_err(|(k, msg)| {
+        Error::invalid(if k.is_empty() {
+            format!("--method {}: {msg}", a.method)
+        } else {
+            format!("{}: {msg}", named(&k))
+        })
+    })?;
+    match resolve_entry(
+        &entry,
+        &PipelineSpec::default(),
+        KeypointOptions::default().seed,
+    ) {
+        Ok(Method::Transfer(m)) => Ok(m),
+        Ok(_) => Err(Error::invalid(format!(
+            "--method {}: not a transfer method",
+            a.method
+        ))),
+        Err((key, msg)) => {
+            let top = key.split('.').next().unwrap_or(&key).to_string();
+            Err(Error::invalid(match flag_of.get(&top) {
+                Some(flag) => format!("{flag}: {msg}"),
+                None => format!("--method {}: `{key}`: {msg} (--opt {key}=...)", a.method),
+            }))
+        }
+    }
 }
 
 fn stem(p: &Path) -> String {
@@ -185,6 +351,11 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
     let _progress = super::progress::on_terminal();
     let t_all = Instant::now();
     check_option_dependencies(&a)?;
+    // The method first: a bad option is refused before anything is read.
+    let method = method_of(&a)?;
+    if method.clone().keypoint_inputs_mut().is_none() {
+        refuse_keypoint_flags(&a)?;
+    }
     // Output paths first, so nothing is computed for a run that would refuse.
     let tstem = stem(&a.target);
     let mut mesh_out = Vec::new();
@@ -212,21 +383,33 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
     let (source, deformed) = a.select.load(&mut checks)?;
     let target = load_checked(&a.target, a.select.policy(), &mut checks)?;
     check_size(&a.target, &target)?;
-    let mut opts = a.select.options();
 
+    let mut method = method;
     let given = match &a.keypoints {
         Some(p) => Some((p.clone(), read_keypoints_csv(p)?)),
         None => None,
     };
-    let (correspondence, map_label, pool) = target_map(&a, &source, &target, given.as_ref())?;
-    // With markers: candidates drawn from the file's source vertices only
-    // (in the file's order; n_c capped at their count).
-    if given.is_none() && pool.is_empty() {
-        a.select.check_candidates(&source, &opts)?;
-    }
-    opts.candidate_pool = pool;
-    let keypoints = match &given {
-        Some((path, rows)) => {
+    let mut map_label = None;
+    if let Some((source_kp, target_points, opts)) = method.keypoint_inputs_mut() {
+        let (correspondence, label, pool) = target_map(&a, &source, &target, given.as_ref())?;
+        map_label = Some(label);
+        // With markers: candidates drawn from the file's source vertices
+        // only (in the file's order; n_c capped at their count).
+        if given.is_none()
+            && pool.is_empty()
+            && matches!(source_kp, KeypointSource::Automatic { .. })
+        {
+            a.select.check_candidates(&source, opts)?;
+        }
+        opts.candidate_pool = pool;
+        if let Some((path, rows)) = &given {
+            if !matches!(source_kp, KeypointSource::Automatic { .. }) {
+                return Err(Error::invalid(format!(
+                    "--keypoints replaces the selection, and --method {} picks its own key \
+                     points; drop one of them",
+                    a.method
+                )));
+            }
             let kp: Vec<usize> = rows.iter().map(|r| r.source).collect();
             if let Some(&bad) = kp.iter().find(|&&v| v >= source.n_vertices()) {
                 return Err(Error::parse(
@@ -238,44 +421,34 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
                     ),
                 ));
             }
-            KeypointSource::Given(kp)
+            *source_kp = KeypointSource::Given(kp);
         }
-        None => KeypointSource::Automatic {
-            selection_poses: None,
-        },
-    };
-    let landmarks = match &a.landmarks {
-        Some(path) => {
-            let pairs = read_pairs(path, PairFormat::from_path(path), None)?;
-            check_pairs(path, &pairs, source.n_vertices(), target.n_vertices())?;
-            if pairs.is_empty() {
-                return Err(Error::parse(path, "file", "no landmarks"));
+        target_points.correspondence = correspondence;
+        target_points.landmarks = match &a.landmarks {
+            Some(path) => {
+                let pairs = read_pairs(path, PairFormat::from_path(path), None)?;
+                check_pairs(path, &pairs, source.n_vertices(), target.n_vertices())?;
+                if pairs.is_empty() {
+                    return Err(Error::parse(path, "file", "no landmarks"));
+                }
+                // Contradictions are refused as in a marker file.
+                let (map, order) = pair_map(path, &pairs)?;
+                order.iter().map(|s| (*s, map[s])).collect()
             }
-            // Contradictions are refused as in a marker file.
-            let (map, order) = pair_map(path, &pairs)?;
-            order.iter().map(|s| (*s, map[s])).collect()
-        }
-        None => Vec::new(),
-    };
-    let d = BdtOptions::default();
-    let options = BdtOptions {
-        keypoints: opts.clone(),
-        frame: a.frame.unwrap_or(d.frame),
-        align: a.align.unwrap_or(d.align),
-        target_weights: a.target_weights.unwrap_or(d.target_weights),
-        refine: a.refine || d.refine,
-    };
-    let (frame, refine) = (options.frame, options.refine);
-    let target_weights = options.transfer_options().weight_kind;
-    let method = TransferMethod::Bdt {
-        keypoints,
-        target: TargetPoints {
-            correspondence,
-            landmarks,
-            seed: opts.seed,
-            ..TargetPoints::default()
-        },
-        options,
+            None => Vec::new(),
+        };
+    }
+    let opts = method
+        .keypoint_inputs_mut()
+        .map(|(_, _, o)| o.clone())
+        .unwrap_or_default();
+    let (frame, refine, target_weights) = match &method {
+        TransferMethod::Bdt { options, .. } => (
+            Some(options.frame),
+            options.refine,
+            Some(options.transfer_options().weight_kind),
+        ),
+        _ => (None, false, None),
     };
     let res = method
         .run(&TransferCase {
@@ -287,28 +460,40 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
             Some((path, _)) => Error::invalid(format!("{}: {e}", path.display())),
             None => e,
         })?;
-    let (Some(picked), Some(found), Some(fit)) = (&res.keypoints, &res.target, &res.fit) else {
-        return Err(Error::invalid("BDT returned no key points"));
-    };
-    let source_kp = picked.keypoints.clone();
-    let target_kp = found.keypoints.clone();
-    let auto = found.auto.as_ref();
+    let source_kp: Vec<usize> = res
+        .keypoints
+        .as_ref()
+        .map(|p| p.keypoints.clone())
+        .unwrap_or_default();
+    let target_kp: Vec<usize> = res
+        .target
+        .as_ref()
+        .map(|t| t.keypoints.clone())
+        .unwrap_or_default();
+    let auto = res.target.as_ref().and_then(|t| t.auto.as_ref());
     let fit_seconds = res.timings.fit.unwrap_or(0.0);
-    let log_sel = match (&picked.selection, &given) {
+    let fit_error = res.fit.as_ref().map(|f| f.error);
+    let log_sel = match (
+        res.keypoints.as_ref().and_then(|p| p.selection.as_ref()),
+        &given,
+    ) {
         (Some((sel, _)), _) => {
             print_selection(sel);
             selection_json(sel)
         }
         (None, Some((path, _))) => {
             println!(
-                "{} key points from {}, fit error {:.6} (unit-sphere units), {:.2} s",
+                "{} key points from {}{}",
                 source_kp.len(),
                 path.display(),
-                fit.error,
-                fit_seconds
+                match fit_error {
+                    Some(e) =>
+                        format!(", fit error {e:.6} (unit-sphere units), {fit_seconds:.2} s"),
+                    None => String::new(),
+                }
             );
             json!({"from_file": path.display().to_string(), "keypoints": source_kp,
-                "error": fit.error, "seconds": fit_seconds})
+                "error": fit_error, "seconds": fit_seconds})
         }
         (None, None) => json!(null),
     };
@@ -319,10 +504,7 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
             r.coarse.residual, r.residual, r.alpha, r.seconds, r.target_keypoints
         );
     }
-    let fit_error = fit.error;
-    let seconds_weights = res.timings.weights.unwrap_or(0.0);
-    let seconds_lbs = res.timings.lbs.unwrap_or(0.0);
-    let seconds_refine = res.timings.refine.unwrap_or(0.0);
+    let t = &res.timings;
 
     create_dir(&a.out)?;
     for (p, m) in mesh_out.iter().zip(&res.meshes) {
@@ -339,10 +521,14 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
             target: Some(t),
         })
         .collect();
-    write_keypoints_csv(&kp_out, &rows, &source, Some(&target))?;
+    if res.keypoints.is_some() {
+        write_keypoints_csv(&kp_out, &rows, &source, Some(&target))?;
+    }
     let log = json!({
         "command": "transfer",
         "version": env!("CARGO_PKG_VERSION"),
+        "method": a.method,
+        "method_options": a.opts,
         "settings": a.select.json(&opts),
         "target": a.target.display().to_string(),
         "target_map": map_label,
@@ -360,7 +546,7 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
             "seconds": r.seconds,
             "output": reg_out.display().to_string(),
         })),
-        "frame": frame.name(),
+        "frame": frame.map(|f| f.name()),
         "target_weights": target_weights,
         "refine": refine,
         "selection": log_sel,
@@ -368,35 +554,55 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
         "source_keypoints": source_kp,
         "target_keypoints": target_kp,
         "seconds": {
-            "fit": fit_seconds,
-            "target_weights": seconds_weights,
-            "lbs": seconds_lbs,
-            "refine": seconds_refine,
+            "fit": t.fit,
+            "target_weights": t.weights,
+            "lbs": t.lbs,
+            "refine": t.refine,
+            "precompute": t.precompute,
+            "factorise": t.factorise,
+            "solve": t.solve,
             "total": t_all.elapsed().as_secs_f64(),
         },
         "outputs": mesh_out.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
         "mesh_checks": checks,
     });
     write_json(&log_out, &log)?;
-    println!(
-        "transferred {} deformation(s) to {} ({} key points, frame {}, {}): weights {:.2} s, LBS {:.2} s, refine {:.2} s, total {:.2} s",
-        res.meshes.len(),
-        a.target.display(),
-        source_kp.len(),
-        frame.name(),
-        if refine { "refined" } else { "not refined" },
-        seconds_weights,
-        seconds_lbs,
-        seconds_refine,
-        t_all.elapsed().as_secs_f64()
-    );
+    let secs = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.2} s"));
+    match frame {
+        Some(frame) => println!(
+            "transferred {} deformation(s) to {} with {} ({} key points, frame {}, {}): weights {}, LBS {}, refine {}, total {:.2} s",
+            res.meshes.len(),
+            a.target.display(),
+            a.method,
+            source_kp.len(),
+            frame.name(),
+            if refine { "refined" } else { "not refined" },
+            secs(t.weights),
+            secs(t.lbs),
+            secs(t.refine),
+            t_all.elapsed().as_secs_f64()
+        ),
+        None => println!(
+            "transferred {} deformation(s) to {} with {} ({} key points): precompute {}, solve {}, total {:.2} s",
+            res.meshes.len(),
+            a.target.display(),
+            a.method,
+            source_kp.len(),
+            secs(t.precompute),
+            secs(t.solve),
+            t_all.elapsed().as_secs_f64()
+        ),
+    }
     for p in &mesh_out {
         println!("  wrote {}", p.display());
     }
     if auto.is_some() {
         println!("  wrote {}", reg_out.display());
     }
-    println!("  wrote {} and {}", kp_out.display(), log_out.display());
+    if res.keypoints.is_some() {
+        println!("  wrote {}", kp_out.display());
+    }
+    println!("  wrote {}", log_out.display());
     Ok(ExitCode::SUCCESS)
 }
 

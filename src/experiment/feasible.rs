@@ -99,10 +99,7 @@ pub fn check_against_data(l: &LoadedConfig, col: &Collection, cases: &[&Case]) -
                         TransferMethod::Bdt {
                             keypoints, options, ..
                         } => (keypoints, &options.keypoints),
-                        TransferMethod::Sumner {
-                            keypoints, options, ..
-                        }
-                        | TransferMethod::Cage {
+                        TransferMethod::Markers {
                             keypoints, options, ..
                         } => (keypoints, options),
                         TransferMethod::Identity | TransferMethod::SumnerOracle => continue,

@@ -354,9 +354,7 @@ fn record_timings(o: &TransferOutcome, out: &mut CaseResult) {
 fn selection_options(m: &TransferMethod) -> Option<&KeypointOptions> {
     match m {
         TransferMethod::Bdt { options, .. } => Some(&options.keypoints),
-        TransferMethod::Sumner { options, .. } | TransferMethod::Cage { options, .. } => {
-            Some(options)
-        }
+        TransferMethod::Markers { options, .. } => Some(options),
         TransferMethod::Identity | TransferMethod::SumnerOracle => None,
     }
 }
@@ -399,9 +397,7 @@ fn record_target(
     out: &mut CaseResult,
 ) -> Result<()> {
     let target = match method {
-        TransferMethod::Bdt { target, .. }
-        | TransferMethod::Sumner { target, .. }
-        | TransferMethod::Cage { target, .. } => target,
+        TransferMethod::Bdt { target, .. } | TransferMethod::Markers { target, .. } => target,
         TransferMethod::Identity | TransferMethod::SumnerOracle => return Ok(()),
     };
     let name = match &target.correspondence {

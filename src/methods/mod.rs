@@ -19,20 +19,13 @@
 //!
 //! # How to add a method
 //!
-//! A transfer method (the `identity` floor was added this way, touching
-//! three files):
-//!
-//! 1. `src/methods/transfer.rs`: a variant of [`TransferMethod`] with its
-//!    parameters, its arm in [`TransferMethod::run`] (return the meshes and
-//!    whatever it measured in a [`TransferOutcome`]) and in `kind_name`.
-//! 2. `src/experiment/config.rs`: a `MethodKind` variant (the config's
-//!    `kind = "..."`) and its arm in `resolve` (which keys it takes).
-//! 3. Configs: a `[[methods]]` entry with the new `kind` in `experiments/`.
-//!
-//! The harness records every [`TransferOutcome`] the same way (metrics
-//! against the ground truth, timings, renders), so nothing else changes. A
-//! registration solver is a variant of the completion solver enum in
-//! [`completion`], likewise.
+//! See [`registry`]: a kind is a variant of [`MethodKind`] and its row in
+//! [`MethodKind::info`] (name, family, summary, the keys it uses, its
+//! constructor). A transfer baseline that takes BDT's key point pairs as
+//! markers is one function of type [`MarkerFn`] (in `transfer.rs`) named
+//! by its row: `|r| Ok(r.markers(my_markers))`. The CLI (`deformlab
+//! transfer --method`), the configs and Python (`transfer(method=...)`)
+//! read the registry; the harness records every [`TransferOutcome`] alike.
 
 pub mod clustering;
 pub mod completion;
@@ -46,9 +39,13 @@ pub use clustering::{Clustering, ClusteringOutcome, Examples};
 pub use keypoints::{
     extremity_keypoints, random_keypoints, KeypointSource, PickedKeypoints, Pool, Strategy,
 };
-pub use registry::{resolve_entry, Family, KindInfo, Method, MethodKind, NamedMethod};
-pub use spec::{FbtSpec, FbtTask, MethodEntry, PipelineSpec};
+pub use registry::{
+    entry_from_table, resolve_entry, Family, KindInfo, Method, MethodEntry, MethodKind,
+    NamedMethod, PipelineSpec,
+};
+pub use spec::{FbtSpec, FbtTask};
 pub use target::{TargetCorrespondence, TargetFound, TargetPoints};
 pub use transfer::{
-    match_translation, BdtOptions, TransferCase, TransferMethod, TransferOutcome, TransferTimings,
+    cage_markers, match_translation, sumner_markers, BdtOptions, MarkerBaseline, MarkerFn,
+    TransferCase, TransferMethod, TransferOutcome, TransferTimings,
 };

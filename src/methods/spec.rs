@@ -1,8 +1,7 @@
-//! The schema of a configured method: the keys of a `[[methods]]` entry
-//! (and of `[defaults]`), each with its range, shared by the experiment
-//! configs, `deformlab transfer --method` and the Python binding. Which
-//! keys a kind uses, and how an entry becomes a library value, is the
-//! registry ([`super::registry`]).
+//! The FBT options of a `kind = "fbt"` method entry (`fbt = { ... }`), and
+//! the ranges of the selection options that the command line shares. The
+//! entry schema itself and the kinds are the registry's
+//! ([`super::registry`]).
 
 use serde::{Deserialize, Serialize};
 
@@ -10,42 +9,8 @@ use crate::methods::completion::{
     CompareWith, DictionaryKind, FbtOptions, FeatureOptions, PipelineKind, RestartOptions,
     RigSource, SolverKind,
 };
-use crate::methods::{Examples, Pool, Strategy, TargetCorrespondence};
-use crate::ops::FpsMetric;
-use crate::range::{Int, NonNegative, OpenUnitInterval, Real, ScaleFactor, UnitInterval};
+use crate::range::{Int, NonNegative, OpenUnitInterval, Real, ScaleFactor};
 use crate::register::DictionaryExamples;
-use crate::skin::bbw::WeightMode;
-use crate::skin::FeatureKind;
-use crate::transfer::{ErrorNorm, FrameAlign, SelectionMode, TargetWeights, TransferFrame};
-
-/// Method kinds.
-#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum MethodKind {
-    /// BDT with automatically selected key points (Algorithm 1).
-    #[default]
-    Bdt,
-    /// BDT with random key points (simulated user).
-    BdtRandom,
-    /// BDT with key points at geodesic extremities (simulated user).
-    BdtExtremity,
-    /// Rotation-group clustering only (BDT Fig. 4), scored against labels.
-    Clustering,
-    /// FBT registration experiments ([`super::fbt`]).
-    Fbt,
-    /// Sumner & Popović deformation transfer with the automatic BDT key
-    /// points as correspondence markers ([`super::baselines`]).
-    Sumner,
-    /// Sumner & Popović deformation transfer with the identity triangle
-    /// correspondence (shared connectivity only).
-    SumnerOracle,
-    /// Cage-based spatial deformation transfer with the automatic BDT key
-    /// points as markers ([`crate::baselines::cage`]).
-    Cage,
-    /// The target left unchanged (`B′ = B`): the floor of every transfer
-    /// evaluation.
-    Identity,
-}
 
 /// Range of `n_candidates` (and `--candidates` of `keypoints` / `transfer`);
 /// at most the source's vertex count, checked once the dataset is open.
@@ -54,159 +19,6 @@ pub type NCandidates = Int<1, 100_000>;
 pub type MaxKeypoints = Int<1, 1000>;
 /// Range of `epsilon` (and `--epsilon`), unit-sphere units.
 pub type Epsilon = Real<NonNegative>;
-
-macro_rules! pipeline_struct {
-    ($(#[$m:meta])* pub struct $name:ident { $($(#[$fm:meta])* pub $f:ident : $t:ty,)* }) => {
-        $(#[$m])*
-        #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
-        #[serde(deny_unknown_fields)]
-        pub struct $name {
-            $($(#[$fm])* pub $f: $t,)*
-            /// FPS candidates n_c (default 100).
-            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "NCandidates::de")]
-            pub n_candidates: Option<usize>,
-            /// Seed of FPS, k-means, random picks (default: the config seed).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub seed: Option<u64>,
-            /// Stage-1 threshold ε (default 0.03).
-            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Epsilon::de")]
-            pub epsilon: Option<f64>,
-            /// `mean` (default: the mean per-vertex distance), `paper` (Eq. 22
-            /// literally) or `rms` ([`ErrorNorm`]).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub error_norm: Option<ErrorNorm>,
-            /// Upper bound on the key points (default 30).
-            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "MaxKeypoints::de")]
-            pub max_keypoints: Option<usize>,
-            /// `fast` (default) or `exact` ([`SelectionMode`]).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub mode: Option<SelectionMode>,
-            /// `geodesic` (default) or `euclidean`.
-            #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub fps: Option<FpsMetric>,
-            /// Rotation-group features (default `augmented`).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub groups: Option<FeatureKind>,
-            /// γ_logr (default 1).
-            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Real::<NonNegative>::de")]
-            pub gamma_logr: Option<f64>,
-            /// γ_s (default 0.1).
-            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Real::<NonNegative>::de")]
-            pub gamma_s: Option<f64>,
-            /// Rotation groups (default: the number of key points).
-            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<1, 10_000>::de")]
-            pub n_groups: Option<usize>,
-            /// E_diff data term (default true; false: handle constraints).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub use_ediff: Option<bool>,
-            /// ARAP weight λ (default 0.5) of every ARAP solve of the method: the
-            /// selection, the fit on A and the refinement on B (`refine = true`;
-            /// there the key points are held with weight μ = 1e5, so λ only sets
-            /// how soft they are and moves B′ little).
-            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Real::<NonNegative>::de")]
-            pub lambda: Option<f64>,
-            /// Stage-2 passes at most (default: until a pass changes nothing, Algorithm 1).
-            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<0, 1000>::de")]
-            pub max_swap_passes: Option<usize>,
-            /// Fast mode: k-means subsample (default 1000).
-            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<1, 10_000_000>::de")]
-            pub kmeans_sample: Option<usize>,
-            /// Fast mode: ARAP iterations per trial (default 30).
-            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<1, 10_000>::de")]
-            pub arap_max_iter: Option<usize>,
-            /// Select key points from the first m deformed poses only (the
-            /// transforms are then fitted on all of them). Default: all.
-            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<1, 1000>::de")]
-            pub selection_poses: Option<usize>,
-            /// `unit_sphere` (the library's default, `BdtOptions::default`),
-            /// `raw` (alias `direct`) or `handle_relative`.
-            #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub frame: Option<TransferFrame>,
-            /// Rotation of B onto A in the unit-sphere frame: `none` (the
-            /// library's default, `BdtOptions::default`), `keypoints` or
-            /// `dense` ([`FrameAlign`]).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub align: Option<FrameAlign>,
-            /// ARAP refinement on the target (default false).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub refine: Option<bool>,
-            /// Target weights: `auto` (default), `bounded`, `fast`.
-            #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub target_weights: Option<TargetWeights>,
-            /// Bounded biharmonic weights of the fits on A and of the target:
-            /// `per_handle` (default; rows normalised) or `coupled` (BDT
-            /// Eq. 1 as written).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub weights: Option<WeightMode>,
-            /// Target key points: `identity` (default; shared connectivity,
-            /// target vertex = source vertex) or `auto` (registration of A
-            /// onto B, [`crate::transfer::auto`]; any connectivity).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub target_correspondence: Option<TargetCorrespondence>,
-            /// Geodesic noise on the target key points: each moves to a random
-            /// vertex within this edge-path radius, √area(B) units (default 0).
-            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Real::<UnitInterval>::de")]
-            pub target_noise: Option<f64>,
-            /// Seed of the target noise (default 0; independent of `seed`, so
-            /// the key points on A stay the same across noise seeds).
-            #[serde(default, skip_serializing_if = "Option::is_none")]
-            pub target_noise_seed: Option<u64>,
-        }
-    };
-}
-
-pipeline_struct! {
-    /// `[defaults]`: pipeline options shared by every method (each method
-    /// may override any of them).
-    pub struct PipelineSpec {}
-}
-
-pipeline_struct! {
-    /// One `[[methods]]` entry: a name, a kind, the kind's own parameters
-    /// and any pipeline option. Keys that do not apply to the kind are
-    /// rejected when the config is resolved.
-    pub struct MethodEntry {
-        /// Unique name (letters, digits, `-`, `_`, `.`): a column value and a folder name.
-        pub name: String,
-        /// What the method does.
-        pub kind: MethodKind,
-        /// Plot group (default: the name): plots aggregate methods of a group.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        pub group: Option<String>,
-        /// Display name in legends and tables (spaces allowed; default: the
-        /// group name). Output only: not part of the config hash. A group
-        /// is shown by the first `label` among its methods.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        pub label: Option<String>,
-        /// Key points (random, extremity).
-        #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<1, 1000>::de")]
-        pub count: Option<usize>,
-        /// Random pool (default `candidates`).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        pub pool: Option<Pool>,
-        /// Extremity strategy (default `centroid_fps`).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        pub strategy: Option<Strategy>,
-        /// Extremity jitter radius in √area units (default 0: exact picks).
-        #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Real::<UnitInterval>::de")]
-        pub jitter: Option<f64>,
-        /// Clustering: FPS handles whose weights form W (default 12).
-        #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<1, 1000>::de")]
-        pub handles: Option<usize>,
-        /// Clustering features.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        pub features: Option<FeatureKind>,
-        /// Clustering: `one` or `all` (default) deformed examples.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        pub examples: Option<Examples>,
-        /// Clustering: clusters (default: the number of true labels, else `handles`).
-        #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<1, 1000>::de")]
-        pub n_clusters: Option<usize>,
-        /// `kind = "fbt"`: the task and its options ([`FbtSpec`]).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        pub fbt: Option<FbtSpec>,
-    }
-}
 
 /// What an FBT method measures (see the module docs).
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]

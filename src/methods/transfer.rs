@@ -87,9 +87,11 @@ pub enum TransferMethod {
         target: TargetPoints,
         options: BdtOptions,
     },
-    /// Sumner & Popović deformation transfer with the key point pairs as the
-    /// markers of its correspondence step.
-    Sumner {
+    /// A baseline that takes the key point pairs as markers: Sumner &
+    /// Popović ([`sumner_markers`]), cage DT ([`cage_markers`]), or any
+    /// [`MarkerFn`] a new kind registers.
+    Markers {
+        baseline: MarkerBaseline,
         keypoints: KeypointSource,
         target: TargetPoints,
         options: KeypointOptions,
@@ -97,13 +99,33 @@ pub enum TransferMethod {
     /// Sumner & Popović with the identity triangle correspondence (shared
     /// connectivity only): the full-correspondence oracle.
     SumnerOracle,
-    /// Cage-based spatial deformation transfer with the key point pairs as
-    /// markers ([`CageTransfer`]).
-    Cage {
-        keypoints: KeypointSource,
-        target: TargetPoints,
-        options: KeypointOptions,
-    },
+}
+
+/// A transfer from marker pairs `(source vertex, target vertex)`: every
+/// pose `a_def[j]` of `a` transferred to `b`.
+pub type MarkerFn =
+    fn(a: &Mesh, a_def: &[Mesh], b: &Mesh, markers: &[(usize, usize)]) -> Result<TransferOutcome>;
+
+/// A marker baseline: its kind's name and its transfer.
+#[derive(Clone, Copy)]
+pub struct MarkerBaseline {
+    /// The kind's name (`sumner`, `cage`, ...).
+    pub name: &'static str,
+    pub run: MarkerFn,
+}
+
+impl std::fmt::Debug for MarkerBaseline {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "MarkerBaseline({})", self.name)
+    }
+}
+
+/// Two baselines are the same kind when their names are (a kind has one
+/// transfer function).
+impl PartialEq for MarkerBaseline {
+    fn eq(&self, other: &Self) -> bool {
+        self.name == other.name
+    }
 }
 
 /// The meshes of one transfer: source `a`, its deformed poses `a_def`,
@@ -154,7 +176,8 @@ pub struct TransferOutcome {
 }
 
 impl TransferOutcome {
-    fn new(meshes: Vec<Mesh>) -> Self {
+    /// The meshes of a transfer, nothing else measured yet.
+    pub fn new(meshes: Vec<Mesh>) -> Self {
         TransferOutcome {
             meshes,
             keypoints: None,
@@ -177,9 +200,32 @@ impl TransferMethod {
                 KeypointSource::Random { .. } => "bdt_random",
                 KeypointSource::Extremity { .. } => "bdt_extremity",
             },
-            TransferMethod::Sumner { .. } => "sumner",
+            TransferMethod::Markers { baseline, .. } => baseline.name,
             TransferMethod::SumnerOracle => "sumner_oracle",
-            TransferMethod::Cage { .. } => "cage",
+        }
+    }
+
+    /// The key point inputs of a method that takes key points (BDT and its
+    /// simulated users, Sumner, cage): where they come from, their target
+    /// points and the selection options; `None` for the kinds that take
+    /// none (`identity`, `sumner_oracle`). The CLI and the binding set the
+    /// inputs they read from files here.
+    pub fn keypoint_inputs_mut(
+        &mut self,
+    ) -> Option<(&mut KeypointSource, &mut TargetPoints, &mut KeypointOptions)> {
+        match self {
+            TransferMethod::Identity | TransferMethod::SumnerOracle => None,
+            TransferMethod::Bdt {
+                keypoints,
+                target,
+                options,
+            } => Some((keypoints, target, &mut options.keypoints)),
+            TransferMethod::Markers {
+                keypoints,
+                target,
+                options,
+                ..
+            } => Some((keypoints, target, options)),
         }
     }
 
@@ -235,12 +281,8 @@ impl TransferMethod {
                 out.fit = Some(fit);
                 Ok(out)
             }
-            TransferMethod::Sumner {
-                keypoints,
-                target,
-                options,
-            }
-            | TransferMethod::Cage {
+            TransferMethod::Markers {
+                baseline,
                 keypoints,
                 target,
                 options,
@@ -260,11 +302,7 @@ impl TransferMethod {
                     .copied()
                     .zip(found.keypoints.iter().copied())
                     .collect();
-                let mut out = if matches!(self, TransferMethod::Cage { .. }) {
-                    cage(a, a_def, b, &markers)?
-                } else {
-                    sumner(a, a_def, b, &markers, false)?
-                };
+                let mut out = (baseline.run)(a, a_def, b, &markers)?;
                 out.keypoints = Some(picked);
                 out.target = Some(found);
                 Ok(out)
@@ -319,8 +357,24 @@ fn sumner(
     Ok(out)
 }
 
-/// Cage DT of every pose with `markers`.
-fn cage(a: &Mesh, a_def: &[Mesh], b: &Mesh, markers: &[(usize, usize)]) -> Result<TransferOutcome> {
+/// Sumner & Popović DT of every pose, the triangle correspondence from
+/// `markers` (the `sumner` kind).
+pub fn sumner_markers(
+    a: &Mesh,
+    a_def: &[Mesh],
+    b: &Mesh,
+    markers: &[(usize, usize)],
+) -> Result<TransferOutcome> {
+    sumner(a, a_def, b, markers, false)
+}
+
+/// Cage DT of every pose with `markers` (the `cage` kind).
+pub fn cage_markers(
+    a: &Mesh,
+    a_def: &[Mesh],
+    b: &Mesh,
+    markers: &[(usize, usize)],
+) -> Result<TransferOutcome> {
     let t = Instant::now();
     let ct = CageTransfer::new(a, b, markers, &CageOptions::default())?;
     let precompute = t.elapsed().as_secs_f64();

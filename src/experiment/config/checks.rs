@@ -4,17 +4,8 @@
 
 use std::path::Path;
 
-use super::read::bad;
 use super::*;
 use crate::{Error, Result};
-
-pub(crate) fn valid_name(s: &str) -> bool {
-    !s.is_empty()
-        && s.len() <= 100
-        && s.bytes()
-            .all(|b| b.is_ascii_alphanumeric() || matches!(b, b'-' | b'_' | b'.'))
-        && !s.starts_with('.')
-}
 
 /// A display name: 1 to 200 characters, no control characters.
 fn valid_label(s: &str) -> bool {

@@ -98,11 +98,10 @@ mod checks;
 mod read;
 
 pub use crate::methods::registry::{Method, NamedMethod};
-pub use crate::methods::spec::{
-    Epsilon, FbtSpec, FbtTask, MaxKeypoints, MethodEntry, MethodKind, NCandidates, PipelineSpec,
-};
+pub use crate::methods::registry::{MethodEntry, MethodKind, PipelineSpec};
+pub use crate::methods::spec::{Epsilon, FbtSpec, FbtTask, MaxKeypoints, NCandidates};
 use crate::range::{Degrees, Int, Positive, Real, RemeshRatio, Spread};
-pub(crate) use checks::{check_dataset, check_outputs, valid_name};
+pub(crate) use checks::{check_dataset, check_outputs};
 pub(crate) use read::parse_unchecked_in;
 
 /// A parsed experiment config.
@@ -721,6 +720,20 @@ pub struct LoadedConfig {
     /// The sweep expanded into methods, if any ([`super::sweep`]): its
     /// axes and the methods each template became, for the manifest.
     pub sweep: Option<serde_json::Value>,
+}
+
+/// A folder name: letters, digits, `-`, `_`, `.`; not starting with `.`.
+pub(crate) fn valid_name(s: &str) -> bool {
+    !s.is_empty()
+        && s.len() <= 100
+        && s.bytes()
+            .all(|b| b.is_ascii_alphanumeric() || matches!(b, b'-' | b'_' | b'.'))
+        && !s.starts_with('.')
+}
+
+/// A config error at key path `key`.
+fn bad(path: &std::path::Path, key: impl Into<String>, msg: impl Into<String>) -> crate::Error {
+    crate::Error::parse(path, format!("key `{}`", key.into()), msg)
 }
 
 /// Columns of cases.csv that plots may name (see [`crate::experiment::store`]).

@@ -5,8 +5,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::checks::valid_name;
-use super::{Config, LoadedConfig, NamedMethod};
+use super::{bad, valid_name, Config, LoadedConfig, NamedMethod};
 use crate::data::DataRoot;
 use crate::methods::registry::resolve_entry;
 use crate::{Error, Result};
@@ -141,10 +140,6 @@ pub(crate) fn parse_unchecked_in(text: &str, path: &Path, root: &DataRoot) -> Re
         sweep: None,
     };
     Ok(loaded)
-}
-
-pub(super) fn bad(path: &Path, key: impl Into<String>, msg: impl Into<String>) -> Error {
-    Error::parse(path, format!("key `{}`", key.into()), msg)
 }
 
 fn resolve(config: &Config, path: &Path) -> Result<Vec<NamedMethod>> {
