@@ -166,8 +166,8 @@ fn every_transfer_kind_runs_alike_from_config_cli_and_library() {
             }
             MethodKind::BdtRandom => vec![("count", "5"), ("seed", "3")],
             MethodKind::BdtExtremity => vec![("count", "5"), ("strategy", "\"centroid_fps\"")],
-            MethodKind::SumnerOracle | MethodKind::Identity => vec![],
-            MethodKind::Clustering | MethodKind::Fbt => unreachable!(),
+            // Every other kind (a new one too) with its defaults.
+            _ => vec![],
         }
     };
     let kinds: Vec<MethodKind> = MethodKind::ALL
@@ -175,7 +175,7 @@ fn every_transfer_kind_runs_alike_from_config_cli_and_library() {
         .copied()
         .filter(|k| k.info().family == Family::Transfer)
         .collect();
-    assert_eq!(kinds.len(), 7);
+    assert!(kinds.len() >= 8, "{kinds:?}");
     let mut text = format!(
         "name = \"kinds\"\n[dataset.faust]\npath = {:?}\n[cases]\nsources = [0]\n\
          targets = [1]\nreference_pose = 0\nposes = [1]\n",
@@ -257,7 +257,7 @@ fn every_transfer_kind_runs_alike_from_config_cli_and_library() {
             .arg(&b_path)
             .args(["--method", k.name(), "--out"])
             .arg(&cli_out);
-        if !matches!(k, MethodKind::SumnerOracle | MethodKind::Identity) {
+        if k.info().uses("target_correspondence") {
             cmd.arg("--same-connectivity");
         }
         for (key, v) in options(k) {
@@ -286,4 +286,43 @@ fn every_transfer_kind_runs_alike_from_config_cli_and_library() {
             );
         }
     }
+}
+
+/// The `rigid` kind (the registry's trial kind) reproduces a rigid motion of
+/// the source exactly when B = A, and leaves B in place when A′ = A.
+#[test]
+fn rigid_kind_reproduces_a_rigid_motion() {
+    use deformlab::methods::rigid_markers;
+    let set = FaustStyle {
+        subjects: 1,
+        poses: 2,
+        resolution: 1,
+        ..FaustStyle::default()
+    }
+    .generate()
+    .unwrap();
+    let a = &set.meshes[0][0];
+    let (c, s) = (0.3f64.cos(), 0.3f64.sin());
+    let moved = a
+        .map_vertices(|p| {
+            deformlab::Point::new(c * p.x - s * p.z + 0.2, p.y - 0.1, s * p.x + c * p.z + 0.05)
+        })
+        .unwrap();
+    let markers: Vec<(usize, usize)> = [3, 70, 250, 600, 900].iter().map(|&i| (i, i)).collect();
+    let out = rigid_markers(a, std::slice::from_ref(&moved), a, &markers).unwrap();
+    let err = out.meshes[0]
+        .vertices()
+        .iter()
+        .zip(moved.vertices())
+        .map(|(p, q)| (p - q).norm())
+        .fold(0.0, f64::max);
+    assert!(err < 1e-9, "{err}");
+    let same = rigid_markers(a, std::slice::from_ref(a), a, &markers).unwrap();
+    let err = same.meshes[0]
+        .vertices()
+        .iter()
+        .zip(a.vertices())
+        .map(|(p, q)| (p - q).norm())
+        .fold(0.0, f64::max);
+    assert!(err < 1e-9, "{err}");
 }

@@ -46,6 +46,6 @@ pub use registry::{
 pub use spec::{FbtSpec, FbtTask};
 pub use target::{TargetCorrespondence, TargetFound, TargetPoints};
 pub use transfer::{
-    cage_markers, match_translation, sumner_markers, BdtOptions, MarkerBaseline, MarkerFn,
-    TransferCase, TransferMethod, TransferOutcome, TransferTimings,
+    cage_markers, match_translation, rigid_markers, sumner_markers, BdtOptions, MarkerBaseline,
+    MarkerFn, TransferCase, TransferMethod, TransferOutcome, TransferTimings,
 };

@@ -32,7 +32,9 @@
 use serde::{Deserialize, Serialize};
 
 use super::spec::{Epsilon, FbtSpec, MaxKeypoints, NCandidates};
-use crate::methods::transfer::{cage_markers, sumner_markers, MarkerBaseline, MarkerFn};
+use crate::methods::transfer::{
+    cage_markers, rigid_markers, sumner_markers, MarkerBaseline, MarkerFn,
+};
 use crate::methods::{BdtOptions, Clustering, KeypointSource, TargetPoints, TransferMethod};
 use crate::methods::{Examples, Pool, Strategy, TargetCorrespondence};
 use crate::ops::FpsMetric;
@@ -81,6 +83,8 @@ method_kinds! {
     /// The target left unchanged (`B′ = B`): the floor of every transfer
     /// evaluation.
     Identity,
+    /// B moved by the best rigid motion of A → A′ at the key points.
+    Rigid,
     /// Rotation-group clustering only (BDT Fig. 4), scored against labels.
     Clustering,
     /// FBT: one of its tasks ([`crate::experiment::fbt`]).
@@ -399,6 +403,14 @@ impl MethodKind {
                 "B left unchanged (B′ = B): the floor of every transfer evaluation",
                 &[],
                 |_| Ok(Method::Transfer(TransferMethod::Identity)),
+            ),
+            MethodKind::Rigid => row(
+                "rigid",
+                Family::Transfer,
+                "B moved rigidly: the best rigid motion of A → A′ at BDT's key points (a \
+                 baseline that ignores articulation)",
+                &[SELECTION, SELECTION_POSES, TARGET],
+                |r| Ok(r.markers(rigid_markers)),
             ),
             MethodKind::Clustering => row(
                 "clustering",

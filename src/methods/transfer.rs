@@ -396,6 +396,36 @@ pub fn cage_markers(
     Ok(out)
 }
 
+/// B moved by the best rigid motion of A → A′ at the marker sources (the
+/// `rigid` kind): the rotation by Kabsch ([`crate::eval::procrustes`])
+/// about B's marker centroid, the translation that of A's marker centroid.
+pub fn rigid_markers(
+    a: &Mesh,
+    a_def: &[Mesh],
+    b: &Mesh,
+    markers: &[(usize, usize)],
+) -> Result<TransferOutcome> {
+    let t = Instant::now();
+    let centroid = |m: &Mesh, idx: &mut dyn Iterator<Item = usize>| {
+        let pts: Vec<_> = idx.map(|i| m.vertices()[i]).collect();
+        let c = pts.iter().fold(Vec3::zeros(), |s, p| s + p.coords) / pts.len().max(1) as f64;
+        (pts, c)
+    };
+    let (src, c_a) = centroid(a, &mut markers.iter().map(|m| m.0));
+    let (_, c_b) = centroid(b, &mut markers.iter().map(|m| m.1));
+    let meshes = a_def
+        .iter()
+        .map(|pose| {
+            let (moved, c_p) = centroid(pose, &mut markers.iter().map(|m| m.0));
+            let rot = crate::eval::procrustes(&src, &moved)?.rotation;
+            b.map_vertices(|p| (rot * (p.coords - c_b) + c_b + (c_p - c_a)).into())
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let mut out = TransferOutcome::new(meshes);
+    out.timings.solve = Some(t.elapsed().as_secs_f64());
+    Ok(out)
+}
+
 /// Translates `result` so that the centroid of its vertices `targets`
 /// moves by the displacement of the centroid of `sources` from
 /// `source_rest` to `source_pose` (relative to `target_rest`).
