@@ -502,3 +502,84 @@ impl SubsetFactorizer {
         Ok(true)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::solve::sparse_from_triplets;
+
+    /// Reusing one analysis over growing and shrinking subsets gives the
+    /// fresh factorisation's solutions, and does reuse it.
+    #[test]
+    fn subset_factorizer_equals_fresh_factorisations() {
+        // 2D grid Laplacian (5-point) + 0.05 I on 24 × 24 nodes.
+        let w = 24;
+        let n = w * w;
+        let mut t = Vec::new();
+        for y in 0..w {
+            for x in 0..w {
+                let i = y * w + x;
+                t.push((i, i, 4.05));
+                for (dx, dy) in [(1usize, 0usize), (0, 1)] {
+                    if x + dx < w && y + dy < w {
+                        let j = (y + dy) * w + x + dx;
+                        t.push((i, j, -1.0));
+                        t.push((j, i, -1.0));
+                    }
+                }
+            }
+        }
+        let a = sparse_from_triplets(n, n, t);
+        let ordered = Ordered::new(&a).unwrap();
+        let rhs: Vec<f64> = (0..n)
+            .map(|i| ((i * 37 % 101) as f64 - 50.0) / 7.0)
+            .collect();
+        let mut fac = SubsetFactorizer::default();
+        let mut calls = 0;
+        // Quarter discs around a corner: a disc, then three subsets of it
+        // (every 17th / 19th / 23rd node removed: inside the analysed
+        // neighbourhood, so no new analysis), then a larger disc (which
+        // leaves it), its subsets, and shrinking discs (correctness only).
+        let disc = |r: usize, skip: usize| -> Vec<bool> {
+            (0..n)
+                .map(|i| (i / w).pow(2) + (i % w).pow(2) <= r * r && (skip == 0 || i % skip != 0))
+                .collect()
+        };
+        let mut sets = Vec::new();
+        for r in [10, 14] {
+            for skip in [0, 17, 19, 23] {
+                sets.push(disc(r, skip));
+            }
+        }
+        let reusing = sets.len();
+        sets.extend((3..14).rev().map(|r| disc(r, 0)));
+        for (call, keep) in sets.iter().enumerate() {
+            let mut got = vec![f64::NAN; n];
+            assert!(fac.solve(&ordered, keep, &rhs, &mut got).unwrap());
+            calls += 1;
+            let (vars, f) = ordered.factorize_subset(keep).unwrap().unwrap();
+            let mut y: Vec<f64> = vars.iter().map(|&i| rhs[i]).collect();
+            f.solve_in_place(&mut y, 1);
+            let scale = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for (&i, &v) in vars.iter().zip(&y) {
+                assert!(
+                    (got[i] - v).abs() <= 1e-12 * scale,
+                    "set {call}, variable {i}"
+                );
+            }
+            for i in 0..n {
+                assert_eq!(got[i].is_nan(), !keep[i], "only F is written");
+            }
+            if call + 1 == reusing {
+                assert_eq!(
+                    fac.analyses, 2,
+                    "one analysis per disc, reused for its subsets"
+                );
+            }
+        }
+        assert!(fac.analyses < calls);
+        assert!(!fac
+            .solve(&ordered, &vec![false; n], &rhs, &mut vec![0.0; n])
+            .unwrap());
+    }
+}
