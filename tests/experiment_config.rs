@@ -195,8 +195,8 @@ fn every_shipped_config_parses() {
 
 #[test]
 fn every_shipped_config_loads() {
-    // The configs of experiments/, experiments/real/, experiments/large/ and
-    // experiments/bench/:
+    // The configs of experiments/, experiments/real/, experiments/large/,
+    // experiments/bench/ and experiments/examples/:
     // schema and values always; the dataset paths of the real variants
     // (under ../shared/data) only where that folder is present, else SKIP.
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("experiments");
@@ -206,6 +206,7 @@ fn every_shipped_config_loads() {
         root.join("real"),
         root.join("large"),
         root.join("bench"),
+        root.join("examples"),
     ] {
         for entry in std::fs::read_dir(&dir).unwrap() {
             let p = entry.unwrap().path();

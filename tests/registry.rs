@@ -56,6 +56,8 @@ fn sample(key: &str) -> &'static str {
         "target_weights" => "\"fast\"",
         "weights" => "\"coupled\"",
         "target_correspondence" => "\"auto\"",
+        "command" => "\"mine {markers} {out}\"",
+        "timeout" => "5",
         other => panic!("no sample value for key {other:?}: add one"),
     }
 }
@@ -92,6 +94,8 @@ fn every_kind_refuses_every_key_it_does_not_use() {
                     "count = 4\n"
                 } else if kind == MethodKind::Fbt && key != "fbt" {
                     "fbt = { task = \"completion\" }\n"
+                } else if kind == MethodKind::External && key != "command" {
+                    "command = \"mine {markers} {out}\"\n"
                 } else {
                     ""
                 }
@@ -166,14 +170,27 @@ fn every_transfer_kind_runs_alike_from_config_cli_and_library() {
             }
             MethodKind::BdtRandom => vec![("count", "5"), ("seed", "3")],
             MethodKind::BdtExtremity => vec![("count", "5"), ("strategy", "\"centroid_fps\"")],
+            MethodKind::External => vec![(
+                "command",
+                "\"python3 scripts/examples/translate_method.py --source {source} --target \
+                 {target} --markers {markers} --out {out} {poses}\"",
+            )],
             // Every other kind (a new one too) with its defaults.
             _ => vec![],
         }
     };
+    let python = Command::new("python3")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !python {
+        eprintln!("SKIP (kind external only): no python3 for the example method");
+    }
     let kinds: Vec<MethodKind> = MethodKind::ALL
         .iter()
         .copied()
         .filter(|k| k.info().family == Family::Transfer)
+        .filter(|&k| python || k != MethodKind::External)
         .collect();
     assert!(kinds.len() >= 8, "{kinds:?}");
     let mut text = format!(

@@ -136,7 +136,10 @@ def test_weight_mode_default_is_one(cli, synthetic_files, tmp_path):
 
 # Options per transfer kind, as the keys of a config entry (`--opt` on the CLI).
 # Kinds not listed run with their defaults.
+_EXAMPLE_METHOD = REPO / "scripts" / "examples" / "translate_method.py"
 _KIND_OPTIONS = {
+    "external": {"command": f"python3 {_EXAMPLE_METHOD} --source {{source}} --target {{target}} "
+                            "--markers {markers} --out {out} {poses}"},
     "bdt": {"n_candidates": 24, "max_keypoints": 6},
     "bdt_random": {"count": 5, "seed": 3},
     "bdt_extremity": {"count": 5, "strategy": "centroid_fps"},

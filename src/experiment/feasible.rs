@@ -101,8 +101,17 @@ pub fn check_against_data(l: &LoadedConfig, col: &Collection, cases: &[&Case]) -
                         } => (keypoints, &options.keypoints),
                         TransferMethod::Markers {
                             keypoints, options, ..
+                        }
+                        | TransferMethod::External {
+                            keypoints: Some(keypoints),
+                            options,
+                            ..
                         } => (keypoints, options),
-                        TransferMethod::Identity | TransferMethod::SumnerOracle => continue,
+                        TransferMethod::Identity
+                        | TransferMethod::SumnerOracle
+                        | TransferMethod::External {
+                            keypoints: None, ..
+                        } => continue,
                     };
                     match source {
                         KeypointSource::Automatic { selection_poses } => {

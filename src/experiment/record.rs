@@ -354,8 +354,17 @@ fn record_timings(o: &TransferOutcome, out: &mut CaseResult) {
 fn selection_options(m: &TransferMethod) -> Option<&KeypointOptions> {
     match m {
         TransferMethod::Bdt { options, .. } => Some(&options.keypoints),
-        TransferMethod::Markers { options, .. } => Some(options),
-        TransferMethod::Identity | TransferMethod::SumnerOracle => None,
+        TransferMethod::Markers { options, .. }
+        | TransferMethod::External {
+            keypoints: Some(_),
+            options,
+            ..
+        } => Some(options),
+        TransferMethod::Identity
+        | TransferMethod::SumnerOracle
+        | TransferMethod::External {
+            keypoints: None, ..
+        } => None,
     }
 }
 
@@ -397,8 +406,18 @@ fn record_target(
     out: &mut CaseResult,
 ) -> Result<()> {
     let target = match method {
-        TransferMethod::Bdt { target, .. } | TransferMethod::Markers { target, .. } => target,
-        TransferMethod::Identity | TransferMethod::SumnerOracle => return Ok(()),
+        TransferMethod::Bdt { target, .. }
+        | TransferMethod::Markers { target, .. }
+        | TransferMethod::External {
+            keypoints: Some(_),
+            target,
+            ..
+        } => target,
+        TransferMethod::Identity
+        | TransferMethod::SumnerOracle
+        | TransferMethod::External {
+            keypoints: None, ..
+        } => return Ok(()),
     };
     let name = match &target.correspondence {
         TargetCorrespondence::Identity => "identity",

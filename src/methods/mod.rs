@@ -29,6 +29,7 @@
 
 pub mod clustering;
 pub mod completion;
+pub mod external;
 pub mod keypoints;
 pub mod registry;
 pub mod spec;

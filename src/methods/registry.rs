@@ -32,13 +32,14 @@
 use serde::{Deserialize, Serialize};
 
 use super::spec::{Epsilon, FbtSpec, MaxKeypoints, NCandidates};
+use crate::methods::external::{ExternalCommand, DEFAULT_TIMEOUT};
 use crate::methods::transfer::{
     cage_markers, rigid_markers, sumner_markers, MarkerBaseline, MarkerFn,
 };
 use crate::methods::{BdtOptions, Clustering, KeypointSource, TargetPoints, TransferMethod};
 use crate::methods::{Examples, Pool, Strategy, TargetCorrespondence};
 use crate::ops::FpsMetric;
-use crate::range::{Int, NonNegative, Real, UnitInterval};
+use crate::range::{Int, NonNegative, Positive, Real, UnitInterval};
 use crate::skin::bbw::BbwOptions;
 use crate::skin::bbw::WeightMode;
 use crate::skin::{FeatureKind, GroupFeatures};
@@ -85,6 +86,8 @@ method_kinds! {
     Identity,
     /// B moved by the best rigid motion of A → A′ at the key points.
     Rigid,
+    /// A command the user gives, run per case ([`crate::methods::external`]).
+    External,
     /// Rotation-group clustering only (BDT Fig. 4), scored against labels.
     Clustering,
     /// FBT: one of its tasks ([`crate::experiment::fbt`]).
@@ -238,6 +241,13 @@ pipeline_struct! {
         /// Clustering: clusters (default: the number of true labels, else `handles`).
         #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<1, 1000>::de")]
         pub n_clusters: Option<usize>,
+        /// `kind = "external"`: the command run per case (placeholders
+        /// `{source}`, `{poses}`, `{target}`, `{markers}`, `{out}`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub command: Option<String>,
+        /// `kind = "external"`: seconds before the command is killed (default 600).
+        #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Real::<Positive>::de")]
+        pub timeout: Option<f64>,
         /// `kind = "fbt"`: the task and its options ([`FbtSpec`]).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         pub fbt: Option<FbtSpec>,
@@ -411,6 +421,15 @@ impl MethodKind {
                  baseline that ignores articulation)",
                 &[SELECTION, SELECTION_POSES, TARGET],
                 |r| Ok(r.markers(rigid_markers)),
+            ),
+            MethodKind::External => row(
+                "external",
+                Family::Transfer,
+                "your method: a `command` run per case on the case's files (A, A′, B, \
+                 optionally BDT's key point pairs), its results read back and evaluated like \
+                 every method (docs/own-method.md)",
+                &[&["command", "timeout"], SELECTION, SELECTION_POSES, TARGET],
+                |r| r.external(),
             ),
             MethodKind::Clustering => row(
                 "clustering",
@@ -631,6 +650,45 @@ impl Resolving<'_> {
             keypoints,
             target: self.target.clone(),
             options: self.bdt.clone(),
+        }))
+    }
+
+    /// An external method: `command` (and `timeout`); BDT's key point
+    /// options only when the command names `{markers}`.
+    pub fn external(&self) -> std::result::Result<Method, (String, String)> {
+        let m = self.entry;
+        let text = m.command.as_deref().ok_or_else(|| {
+            (
+                "command".to_string(),
+                "expected the command to run per case, e.g. \
+                 \"python3 mine.py --source {source} --target {target} --out {out} {poses}\""
+                    .to_string(),
+            )
+        })?;
+        let timeout = m.timeout.unwrap_or(DEFAULT_TIMEOUT);
+        let command =
+            ExternalCommand::new(text, timeout).map_err(|e| ("command".to_string(), e))?;
+        let keypoints = if command.uses_markers() {
+            Some(self.automatic())
+        } else {
+            if let Some(k) = keys_set(m)
+                .into_iter()
+                .find(|k| !matches!(k.as_str(), "command" | "timeout"))
+            {
+                return Err((
+                    k,
+                    "configures the key point pairs, which this command does not take (it \
+                     names no {markers})"
+                        .to_string(),
+                ));
+            }
+            None
+        };
+        Ok(Method::Transfer(TransferMethod::External {
+            command,
+            keypoints,
+            target: self.target.clone(),
+            options: self.bdt.keypoints.clone(),
         }))
     }
 

@@ -5,6 +5,7 @@
 
 use std::time::Instant;
 
+use super::external::ExternalCommand;
 use super::keypoints::{memo_fit_timed, KeypointSource, PickedKeypoints};
 use super::target::{TargetFound, TargetPoints};
 use crate::arap::ArapOptions;
@@ -99,6 +100,14 @@ pub enum TransferMethod {
     /// Sumner & Popović with the identity triangle correspondence (shared
     /// connectivity only): the full-correspondence oracle.
     SumnerOracle,
+    /// A command the user gives ([`ExternalCommand`]), with BDT's key point
+    /// pairs as `{markers}` when it names them (`keypoints` then set).
+    External {
+        command: ExternalCommand,
+        keypoints: Option<KeypointSource>,
+        target: TargetPoints,
+        options: KeypointOptions,
+    },
 }
 
 /// A transfer from marker pairs `(source vertex, target vertex)`: every
@@ -202,6 +211,7 @@ impl TransferMethod {
             },
             TransferMethod::Markers { baseline, .. } => baseline.name,
             TransferMethod::SumnerOracle => "sumner_oracle",
+            TransferMethod::External { .. } => "external",
         }
     }
 
@@ -214,7 +224,17 @@ impl TransferMethod {
         &mut self,
     ) -> Option<(&mut KeypointSource, &mut TargetPoints, &mut KeypointOptions)> {
         match self {
-            TransferMethod::Identity | TransferMethod::SumnerOracle => None,
+            TransferMethod::Identity
+            | TransferMethod::SumnerOracle
+            | TransferMethod::External {
+                keypoints: None, ..
+            } => None,
+            TransferMethod::External {
+                keypoints: Some(keypoints),
+                target,
+                options,
+                ..
+            } => Some((keypoints, target, options)),
             TransferMethod::Bdt {
                 keypoints,
                 target,
@@ -305,6 +325,36 @@ impl TransferMethod {
                 let mut out = (baseline.run)(a, a_def, b, &markers)?;
                 out.keypoints = Some(picked);
                 out.target = Some(found);
+                Ok(out)
+            }
+            TransferMethod::External {
+                command,
+                keypoints,
+                target,
+                options,
+            } => {
+                let (mut picked, mut found) = (None, None);
+                if let Some(source) = keypoints {
+                    let p = source.pick(a, a_def, options)?;
+                    found = Some(target.find(a, b, &p.keypoints)?);
+                    picked = Some(p);
+                }
+                let markers: Option<Vec<(usize, usize)>> = match (&picked, &found) {
+                    (Some(p), Some(f)) => Some(
+                        p.keypoints
+                            .iter()
+                            .copied()
+                            .zip(f.keypoints.iter().copied())
+                            .collect(),
+                    ),
+                    _ => None,
+                };
+                let t = Instant::now();
+                let meshes = command.run(a, a_def, b, markers.as_deref())?;
+                let mut out = TransferOutcome::new(meshes);
+                out.timings.solve = Some(t.elapsed().as_secs_f64());
+                out.keypoints = picked;
+                out.target = found;
                 Ok(out)
             }
             TransferMethod::SumnerOracle => {
