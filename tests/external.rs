@@ -206,3 +206,87 @@ fn external_configs_are_checked_at_load() {
     let e = load("command = \"mine {out}\"\ncount = 3");
     assert!(e.contains("does not apply to kind = \"external\""), "{e}");
 }
+
+/// A function registered by the host program (`kind = "callable"`): run by
+/// the harness like every method, its results in cases.csv and
+/// summary.csv; an error it returns fails its case only; an unregistered
+/// name is refused at load.
+#[test]
+fn registered_functions_run_as_methods() {
+    use deformlab::experiment::{run_configs, LoadOptions, RunOptions};
+    use deformlab::methods::external::{register_callable, unregister_callable};
+    use std::sync::Arc;
+    // B moved by the mean displacement of the key points (as the example
+    // script does), and a function that always fails.
+    register_callable(
+        "test-shift",
+        Arc::new(|i| {
+            let m = i.markers.expect("markers = true");
+            let mut out = Vec::new();
+            for pose in i.a_def {
+                let mut d = nalgebra::Vector3::zeros();
+                for &(s, _) in m {
+                    d += pose.vertices()[s] - i.a.vertices()[s];
+                }
+                d /= m.len() as f64;
+                out.push(i.b.vertices().iter().map(|p| p + d).collect());
+            }
+            Ok(out)
+        }),
+    );
+    register_callable(
+        "test-broken",
+        Arc::new(|_| Err(deformlab::Error::invalid("my bug"))),
+    );
+    let t = tempfile::tempdir().unwrap();
+    let cfg = t.path().join("fn.toml");
+    std::fs::write(
+        &cfg,
+        "name = \"fn\"\n[dataset.synthetic]\nsubjects = 2\nposes = 2\nresolution = 1\n\
+         [cases]\nsources = [0]\n\
+         [[methods]]\nname = \"shift\"\nkind = \"callable\"\nfunction = \"test-shift\"\nmarkers = true\n\
+         [[methods]]\nname = \"broken\"\nkind = \"callable\"\nfunction = \"test-broken\"\n\
+         [[methods]]\nname = \"identity\"\nkind = \"identity\"\n",
+    )
+    .unwrap();
+    let opts = RunOptions {
+        out: t.path().join("out"),
+        threads: 2,
+        shard: None,
+        plots: false,
+        progress: false,
+        max_new: None,
+        wait: true,
+        defects: Default::default(),
+        load: LoadOptions::default(),
+        force: false,
+        retry_failed: false,
+    };
+    let s = run_configs(std::slice::from_ref(&cfg), &opts).unwrap();
+    assert_eq!(s[0].failed, 1, "the broken function's case");
+    let cases = rows(&t.path().join("out/fn/cases.csv"));
+    let row = |m: &str| cases.iter().find(|r| r["method"] == m).unwrap().clone();
+    assert_eq!(row("shift")["status"], "ok");
+    assert_eq!(row("shift")["kind"], "callable");
+    assert!(!row("shift")["keypoints"].is_empty());
+    let b = row("broken")["status"].clone();
+    assert!(b.contains("test-broken") && b.contains("my bug"), "{b}");
+    // A translation: after the best rigid alignment, the floor's error.
+    let (a, f) = (
+        row("shift")["err_mean_area_rigid"].parse::<f64>().unwrap(),
+        row("identity")["err_mean_area_rigid"]
+            .parse::<f64>()
+            .unwrap(),
+    );
+    assert!((a - f).abs() < 1e-6, "{a} vs {f}");
+    unregister_callable("test-shift");
+    // Unregistered: refused at load, naming the key and the function.
+    let e = deformlab::experiment::load_config(&cfg)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("methods[0].function") && e.contains("test-shift"),
+        "{e}"
+    );
+    unregister_callable("test-broken");
+}

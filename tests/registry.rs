@@ -57,6 +57,8 @@ fn sample(key: &str) -> &'static str {
         "weights" => "\"coupled\"",
         "target_correspondence" => "\"auto\"",
         "command" => "\"mine {markers} {out}\"",
+        "function" => "\"registry-test\"",
+        "markers" => "true",
         "timeout" => "5",
         other => panic!("no sample value for key {other:?}: add one"),
     }
@@ -78,6 +80,10 @@ fn schema_keys() -> Vec<String> {
 
 #[test]
 fn every_kind_refuses_every_key_it_does_not_use() {
+    deformlab::methods::external::register_callable(
+        "registry-test",
+        std::sync::Arc::new(|i| Ok(vec![i.b.vertices().to_vec(); i.a_def.len()])),
+    );
     let keys = schema_keys();
     assert!(keys.len() > 30, "{keys:?}");
     let mut used_somewhere: BTreeMap<String, bool> = BTreeMap::new();
@@ -94,6 +100,10 @@ fn every_kind_refuses_every_key_it_does_not_use() {
                     "count = 4\n"
                 } else if kind == MethodKind::Fbt && key != "fbt" {
                     "fbt = { task = \"completion\" }\n"
+                } else if kind == MethodKind::Callable && key == "markers" {
+                    "function = \"registry-test\"\n"
+                } else if kind == MethodKind::Callable && key != "function" {
+                    "function = \"registry-test\"\nmarkers = true\n"
                 } else if kind == MethodKind::External && key != "command" {
                     "command = \"mine {markers} {out}\"\n"
                 } else {
@@ -191,6 +201,9 @@ fn every_transfer_kind_runs_alike_from_config_cli_and_library() {
         .copied()
         .filter(|k| k.info().family == Family::Transfer)
         .filter(|&k| python || k != MethodKind::External)
+        // Functions are registered by a host program (Python's run), not
+        // by the CLI: tests/external.rs runs them.
+        .filter(|&k| k != MethodKind::Callable)
         .collect();
     assert!(kinds.len() >= 8, "{kinds:?}");
     let mut text = format!(

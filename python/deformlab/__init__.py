@@ -607,6 +607,7 @@ def run(
     force: bool = False,
     retry_failed: bool = False,
     progress: bool = False,
+    methods: Optional[Dict[str, Any]] = None,
 ) -> List[Dict[str, Any]]:
     """Run experiment configs, as ``deformlab run CONFIG... --out OUT --set K=V``.
 
@@ -617,6 +618,17 @@ def run(
     summary dict per experiment (``name``, ``dir``, ``computed``, ``reused``,
     ``failed``, ``wall_seconds``, ``complete``); read its folder with
     :func:`load_results`.
+
+    ``methods``: your own methods as Python functions, by the name a config
+    entry gives them (``kind = "callable"``, ``function = "mine"``;
+    ``markers = true`` passes BDT's key point pairs). Each is called per
+    case as ``fn(A, poses, B, markers)`` with ``A = (V, F)``, ``poses`` a
+    list of ``(n, 3)`` arrays, ``B = (V, F)``, ``markers`` a list of
+    ``(source, target)`` vertex pairs or ``None``, and returns one
+    ``(n_B, 3)`` array per pose (B's vertex order); its results are
+    evaluated like every method's. An exception fails that case only. The
+    store keys results on the function's name: rename it (or ``force=True``)
+    when its code changes.
     """
     paths = [config_path] if isinstance(config_path, (str, os.PathLike)) else list(config_path)
 
@@ -647,7 +659,24 @@ def run(
         force,
         retry_failed,
         progress,
+        _methods(methods),
     )
+
+
+def _methods(methods: Optional[Dict[str, Any]]) -> Optional[List[Tuple[str, Any]]]:
+    """``run(methods=...)``: names and callables, checked."""
+    if methods is None:
+        return None
+    if not isinstance(methods, dict):
+        raise ValueError("methods: expected a dict of name -> function")
+    out = []
+    for name, fn in methods.items():
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"methods: expected names as strings, got {name!r}")
+        if not callable(fn):
+            raise ValueError(f"methods[{name!r}]: expected a function, got {type(fn).__name__}")
+        out.append((name, fn))
+    return out
 
 
 def _fmt(v: Any) -> str:

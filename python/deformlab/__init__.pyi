@@ -175,5 +175,6 @@ def run(
     force: bool = False,
     retry_failed: bool = False,
     progress: bool = False,
+    methods: Optional[Dict[str, Any]] = None,
 ) -> List[RunSummary]: ...
 def load_results(folder: PathLike) -> Dict[str, Any]: ...

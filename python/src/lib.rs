@@ -10,6 +10,7 @@
 //! argument coercion, scipy/pandas conversion) is `python/deformlab/`.
 
 use std::path::PathBuf;
+use std::sync::Arc;
 
 use clap::ValueEnum;
 use nalgebra::DMatrix;
@@ -27,6 +28,7 @@ use deformlab::mesh::{Face, RawMesh};
 use deformlab::methods::completion::{
     CompletionProblem, CompletionSolver, FbtOptions, FeatureOptions, PipelineKind, SolverKind,
 };
+use deformlab::methods::external::{register_callable, unregister_callable, CallInput, CallableFn};
 use deformlab::methods::{
     entry_from_table, resolve_entry, Family, KeypointSource, Method, MethodKind, PipelineSpec,
     TargetCorrespondence, TargetPoints, TransferCase, TransferMethod,
@@ -1170,10 +1172,52 @@ fn synthetic<'py>(
 // ---------------------------------------------------------------------------
 // Experiments
 
+/// A Python function as a method: `fn(A, poses, B, markers)` with
+/// `A = (V, F)`, `poses` a list of `(n, 3)` arrays, `B = (V, F)` and
+/// `markers` a list of `(source, target)` pairs or `None`; it returns one
+/// `(n_B, 3)` array per pose. Called with the GIL held (one case at a time
+/// in Python); an exception fails that case with its message.
+fn python_method(name: String, f: Py<PyAny>) -> Arc<CallableFn> {
+    Arc::new(
+        move |inp: &CallInput| -> deformlab::Result<Vec<Vec<Point>>> {
+            Python::attach(|py| {
+                let err = |e: PyErr| Error::invalid(format!("{name}: {e}"));
+                let a = (
+                    points_array(py, inp.a.vertices()),
+                    faces_array(py, inp.a.faces()),
+                );
+                let poses = PyList::empty(py);
+                for m in inp.a_def {
+                    poses.append(points_array(py, m.vertices())).map_err(err)?;
+                }
+                let b = (
+                    points_array(py, inp.b.vertices()),
+                    faces_array(py, inp.b.faces()),
+                );
+                let markers: Option<Vec<(usize, usize)>> = inp.markers.map(<[_]>::to_vec);
+                let r = f.call1(py, (a, poses, b, markers)).map_err(err)?;
+                let items = r.bind(py).try_iter().map_err(err)?;
+                let mut out = Vec::new();
+                for (j, item) in items.enumerate() {
+                    let arr: PyReadonlyArray2<'_, f64> =
+                        item.map_err(err)?.extract().map_err(|e| {
+                            Error::invalid(format!(
+                                "{name}: B′ {} is not an (n, 3) float array ({e})",
+                                j + 1
+                            ))
+                        })?;
+                    out.push(points("B′", &arr, true).map_err(err)?);
+                }
+                Ok(out)
+            })
+        },
+    )
+}
+
 /// `deformlab run` on config files: one summary dict per experiment.
 #[pyfunction]
 #[pyo3(signature = (configs, out=None, overrides=None, sweep=None, threads=None,
-    data_root=None, plots=true, force=false, retry_failed=false, progress=false))]
+    data_root=None, plots=true, force=false, retry_failed=false, progress=false, methods=None))]
 #[allow(clippy::too_many_arguments)]
 fn run<'py>(
     py: Python<'py>,
@@ -1187,6 +1231,7 @@ fn run<'py>(
     force: bool,
     retry_failed: bool,
     progress: bool,
+    methods: Option<Vec<(String, Py<PyAny>)>>,
 ) -> PyResult<Bound<'py, PyList>> {
     if configs.is_empty() {
         return Err(value_err("config_path: expected at least one config file"));
@@ -1214,7 +1259,21 @@ fn run<'py>(
         force,
         retry_failed,
     };
-    let summaries = py.detach(|| run_configs(&configs, &opts)).map_err(py_err)?;
+    // Python functions as `kind = "callable"` methods, registered by name
+    // for this run.
+    let names: Vec<String> = methods
+        .unwrap_or_default()
+        .into_iter()
+        .map(|(name, f)| {
+            register_callable(&name, python_method(name.clone(), f));
+            name
+        })
+        .collect();
+    let summaries = py.detach(|| run_configs(&configs, &opts));
+    for n in &names {
+        unregister_callable(n);
+    }
+    let summaries = summaries.map_err(py_err)?;
     let list = PyList::empty(py);
     for s in summaries {
         let d = PyDict::new(py);

@@ -125,7 +125,13 @@ def test_baselines(small_set, method):
     V, F = small_set["V"], small_set["F"]
     A, B = (V[0][0], F), (V[1][0], F)
     kp = dl.fps(V[0][0], F, 8, metric="geodesic").tolist()
-    r = dl.transfer(A, V[0][1:2], B, kp, keypoints=kp, method=method)
+    if method in ("sumner_oracle", "identity"):
+        # These take no key points: giving them is refused, as on the CLI.
+        with pytest.raises(ValueError, match="takes no key points"):
+            dl.transfer(A, V[0][1:2], B, kp, keypoints=kp, method=method)
+        r = dl.transfer(A, V[0][1:2], B, method=method)
+    else:
+        r = dl.transfer(A, V[0][1:2], B, kp, keypoints=kp, method=method)
     assert r["method"] == method and len(r["meshes"]) == 1
     err = np.linalg.norm(r["meshes"][0] - V[1][1], axis=1).mean()
     floor = np.linalg.norm(V[1][0] - V[1][1], axis=1).mean()
@@ -174,3 +180,40 @@ def test_long_calls_release_the_gil(small_set):
     # Holding the GIL through the solve would pause the main thread for
     # about the whole call.
     assert gap < 0.5 * call, (gap, call)
+
+
+def test_python_functions_run_as_methods(tmp_path):
+    """run(config, methods={...}): a Python function evaluated like every
+    method; an exception fails its case only."""
+    cfg = tmp_path / "fn.toml"
+    cfg.write_text(
+        'name = "fn"\n[dataset.synthetic]\nsubjects = 2\nposes = 2\nresolution = 1\n'
+        "[cases]\nsources = [0]\n"
+        '[[methods]]\nname = "mine"\nkind = "callable"\nfunction = "shift"\nmarkers = true\n'
+        '[[methods]]\nname = "broken"\nkind = "callable"\nfunction = "broken"\n'
+        '[[methods]]\nname = "identity"\nkind = "identity"\n'
+    )
+    calls = []
+
+    def shift(A, poses, B, markers):
+        calls.append(len(markers))
+        src = [s for s, _ in markers]
+        return [B[0] + (P[src] - A[0][src]).mean(axis=0) for P in poses]
+
+    def broken(A, poses, B, markers):
+        raise RuntimeError("my bug")
+
+    s = dl.run(cfg, out=tmp_path / "out", plots=False, methods={"shift": shift, "broken": broken})
+    assert s[0]["failed"] == 1 and calls
+    r = dl.load_results(s[0]["dir"])
+    cases = r["cases"].set_index("method")
+    assert cases.loc["mine", "status"] == "ok"
+    assert "my bug" in cases.loc["broken", "status"]
+    # A translation is rigid: after alignment it scores the floor.
+    assert cases.loc["mine", "err_mean_area_rigid"] == pytest.approx(
+        cases.loc["identity", "err_mean_area_rigid"], rel=1e-6)
+    with pytest.raises(ValueError, match="expected a function"):
+        dl.run(cfg, out=tmp_path / "out2", methods={"shift": 3})
+    # Without the function the config does not load.
+    with pytest.raises(Exception, match="shift"):
+        dl.run(cfg, out=tmp_path / "out3")

@@ -18,10 +18,21 @@
 //! A command that exits with an error, outlives its `timeout`, or writes a
 //! result with another vertex count than B is a failure of that case (the
 //! message keeps the end of its standard error); the other cases run on.
+//!
+//! **Functions** (kind `callable`): a method given in-process by a host
+//! program, e.g. a Python function passed to `deformlab.run(config,
+//! methods={"mine": fn})`. The host registers it by name
+//! ([`register_callable`]) before the config is loaded; the config names it
+//! (`function = "mine"`). It gets A, A′ and B (and the key point pairs with
+//! `markers = true`) and returns one vertex list per pose, evaluated like
+//! every method's. The store keys results on the function's *name*: rename
+//! it, or run with `--force`, when its code changes.
 
+use std::collections::BTreeMap;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+use std::sync::{Arc, RwLock};
 use std::time::{Duration, Instant};
 
 use crate::mesh::io::{read_mesh, write_obj};
@@ -249,6 +260,159 @@ fn result_vertices(path: &Path) -> Result<Vec<crate::Point>> {
         Ok(v)
     } else {
         Ok(read_mesh(path)?.vertices().to_vec())
+    }
+}
+
+/// What a registered function gets for one case.
+#[derive(Clone, Copy, Debug)]
+pub struct CallInput<'a> {
+    pub a: &'a Mesh,
+    pub a_def: &'a [Mesh],
+    pub b: &'a Mesh,
+    /// The key point pairs `(source vertex, target vertex)` (`markers = true`).
+    pub markers: Option<&'a [(usize, usize)]>,
+}
+
+/// A method as a function: one vertex list per pose, B's vertices in order.
+pub type CallableFn = dyn Fn(&CallInput) -> Result<Vec<Vec<crate::Point>>> + Send + Sync;
+
+/// A registered function, by name.
+#[derive(Clone)]
+pub struct Callable {
+    pub name: String,
+    pub f: Arc<CallableFn>,
+}
+
+impl std::fmt::Debug for Callable {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Callable({})", self.name)
+    }
+}
+
+/// Two callables are the same method when their names are.
+impl PartialEq for Callable {
+    fn eq(&self, other: &Self) -> bool {
+        self.name == other.name
+    }
+}
+
+impl Callable {
+    /// Runs the function and checks what it returned.
+    pub fn run(&self, input: &CallInput) -> Result<Vec<Mesh>> {
+        let out = (self.f)(input)
+            .map_err(|e| Error::invalid(format!("function {:?}: {e}", self.name)))?;
+        if out.len() != input.a_def.len() {
+            return Err(Error::invalid(format!(
+                "function {:?} returned {} meshes for {} poses; return one B′ per pose",
+                self.name,
+                out.len(),
+                input.a_def.len()
+            )));
+        }
+        out.into_iter()
+            .enumerate()
+            .map(|(j, v)| {
+                if v.len() != input.b.n_vertices() {
+                    return Err(Error::invalid(format!(
+                        "function {:?}: B′ for pose {} has {} vertices, the target {}",
+                        self.name,
+                        j + 1,
+                        v.len(),
+                        input.b.n_vertices()
+                    )));
+                }
+                if v.iter().any(|p| !p.coords.iter().all(|x| x.is_finite())) {
+                    return Err(Error::invalid(format!(
+                        "function {:?}: B′ for pose {} has non-finite coordinates",
+                        self.name,
+                        j + 1
+                    )));
+                }
+                input.b.with_vertices(v)
+            })
+            .collect()
+    }
+}
+
+fn callables() -> &'static RwLock<BTreeMap<String, Callable>> {
+    static REGISTRY: std::sync::OnceLock<RwLock<BTreeMap<String, Callable>>> =
+        std::sync::OnceLock::new();
+    REGISTRY.get_or_init(|| RwLock::new(BTreeMap::new()))
+}
+
+/// Registers `f` as the function `name` of `kind = "callable"` methods
+/// (replacing a function of that name).
+pub fn register_callable(name: &str, f: Arc<CallableFn>) {
+    if let Ok(mut m) = callables().write() {
+        m.insert(
+            name.to_string(),
+            Callable {
+                name: name.to_string(),
+                f,
+            },
+        );
+    }
+}
+
+/// Removes the function `name`.
+pub fn unregister_callable(name: &str) {
+    if let Ok(mut m) = callables().write() {
+        m.remove(name);
+    }
+}
+
+/// The registered function `name`.
+pub fn callable(name: &str) -> std::result::Result<Callable, String> {
+    let m = callables()
+        .read()
+        .map_err(|_| "the function registry is poisoned".to_string())?;
+    m.get(name).cloned().ok_or_else(|| {
+        let known: Vec<&str> = m.keys().map(String::as_str).collect();
+        format!(
+            "no function {name:?} is registered (functions run from a host program, e.g. \
+             Python: deformlab.run(config, methods={{{name:?}: fn}}){}",
+            if known.is_empty() {
+                ")".to_string()
+            } else {
+                format!("; registered: {})", known.join(", "))
+            }
+        )
+    })
+}
+
+/// How an external method computes: a command, or a registered function.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ExternalRunner {
+    Command(ExternalCommand),
+    Function(Callable),
+}
+
+impl ExternalRunner {
+    /// The kind's name.
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            ExternalRunner::Command(_) => "external",
+            ExternalRunner::Function(_) => "callable",
+        }
+    }
+
+    /// B′ per pose of A → A′ onto B.
+    pub fn run(
+        &self,
+        a: &Mesh,
+        a_def: &[Mesh],
+        b: &Mesh,
+        markers: Option<&[(usize, usize)]>,
+    ) -> Result<Vec<Mesh>> {
+        match self {
+            ExternalRunner::Command(c) => c.run(a, a_def, b, markers),
+            ExternalRunner::Function(f) => f.run(&CallInput {
+                a,
+                a_def,
+                b,
+                markers,
+            }),
+        }
     }
 }
 

@@ -32,7 +32,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::spec::{Epsilon, FbtSpec, MaxKeypoints, NCandidates};
-use crate::methods::external::{ExternalCommand, DEFAULT_TIMEOUT};
+use crate::methods::external::{callable, ExternalCommand, ExternalRunner, DEFAULT_TIMEOUT};
 use crate::methods::transfer::{
     cage_markers, rigid_markers, sumner_markers, MarkerBaseline, MarkerFn,
 };
@@ -88,6 +88,9 @@ method_kinds! {
     Rigid,
     /// A command the user gives, run per case ([`crate::methods::external`]).
     External,
+    /// A function a host program registered (e.g. Python's
+    /// `run(config, methods={...})`; [`crate::methods::external`]).
+    Callable,
     /// Rotation-group clustering only (BDT Fig. 4), scored against labels.
     Clustering,
     /// FBT: one of its tasks ([`crate::experiment::fbt`]).
@@ -248,6 +251,12 @@ pipeline_struct! {
         /// `kind = "external"`: seconds before the command is killed (default 600).
         #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Real::<Positive>::de")]
         pub timeout: Option<f64>,
+        /// `kind = "callable"`: the registered function's name.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub function: Option<String>,
+        /// `kind = "callable"`: pass BDT's key point pairs (default false).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub markers: Option<bool>,
         /// `kind = "fbt"`: the task and its options ([`FbtSpec`]).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         pub fbt: Option<FbtSpec>,
@@ -430,6 +439,15 @@ impl MethodKind {
                  every method (docs/own-method.md)",
                 &[&["command", "timeout"], SELECTION, SELECTION_POSES, TARGET],
                 |r| r.external(),
+            ),
+            MethodKind::Callable => row(
+                "callable",
+                Family::Transfer,
+                "your method as a function of the host program (Python: \
+                 `deformlab.run(config, methods={\"name\": fn})`), named by `function`; \
+                 `markers = true` passes BDT's key point pairs",
+                &[&["function", "markers"], SELECTION, SELECTION_POSES, TARGET],
+                |r| r.callable(),
             ),
             MethodKind::Clustering => row(
                 "clustering",
@@ -668,28 +686,62 @@ impl Resolving<'_> {
         let timeout = m.timeout.unwrap_or(DEFAULT_TIMEOUT);
         let command =
             ExternalCommand::new(text, timeout).map_err(|e| ("command".to_string(), e))?;
-        let keypoints = if command.uses_markers() {
-            Some(self.automatic())
-        } else {
-            if let Some(k) = keys_set(m)
-                .into_iter()
-                .find(|k| !matches!(k.as_str(), "command" | "timeout"))
-            {
-                return Err((
-                    k,
-                    "configures the key point pairs, which this command does not take (it \
-                     names no {markers})"
-                        .to_string(),
-                ));
-            }
-            None
-        };
+        let keypoints = self.marker_source(
+            command.uses_markers(),
+            &["command", "timeout"],
+            "this command does not take (it names no {markers})",
+        )?;
         Ok(Method::Transfer(TransferMethod::External {
-            command,
+            runner: ExternalRunner::Command(command),
             keypoints,
             target: self.target.clone(),
             options: self.bdt.keypoints.clone(),
         }))
+    }
+
+    /// A function registered by the host program (`function`, `markers`).
+    pub fn callable(&self) -> std::result::Result<Method, (String, String)> {
+        let m = self.entry;
+        let name = m.function.as_deref().ok_or_else(|| {
+            (
+                "function".to_string(),
+                "expected the name of a registered function, e.g. function = \"mine\" with \
+                 deformlab.run(config, methods={\"mine\": fn})"
+                    .to_string(),
+            )
+        })?;
+        let f = callable(name).map_err(|e| ("function".to_string(), e))?;
+        let keypoints = self.marker_source(
+            m.markers.unwrap_or(false),
+            &["function", "markers"],
+            "this function does not take (markers = false)",
+        )?;
+        Ok(Method::Transfer(TransferMethod::External {
+            runner: ExternalRunner::Function(f),
+            keypoints,
+            target: self.target.clone(),
+            options: self.bdt.keypoints.clone(),
+        }))
+    }
+
+    /// Automatic key points when an external method takes marker pairs;
+    /// else none, and a selection key set on the entry is an error.
+    fn marker_source(
+        &self,
+        takes_markers: bool,
+        own: &[&str],
+        why: &str,
+    ) -> std::result::Result<Option<KeypointSource>, (String, String)> {
+        if takes_markers {
+            return Ok(Some(self.automatic()));
+        }
+        match keys_set(self.entry)
+            .into_iter()
+            .find(|k| !own.contains(&k.as_str()))
+        {
+            Some(k) => Err((k, format!("configures the key point pairs, which {why}"))),
+            None => Ok(None),
+        }
     }
 
     /// A baseline that takes BDT's automatic key point pairs as markers

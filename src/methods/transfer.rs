@@ -5,7 +5,7 @@
 
 use std::time::Instant;
 
-use super::external::ExternalCommand;
+use super::external::ExternalRunner;
 use super::keypoints::{memo_fit_timed, KeypointSource, PickedKeypoints};
 use super::target::{TargetFound, TargetPoints};
 use crate::arap::ArapOptions;
@@ -100,10 +100,11 @@ pub enum TransferMethod {
     /// Sumner & Popović with the identity triangle correspondence (shared
     /// connectivity only): the full-correspondence oracle.
     SumnerOracle,
-    /// A command the user gives ([`ExternalCommand`]), with BDT's key point
-    /// pairs as `{markers}` when it names them (`keypoints` then set).
+    /// A command the user gives, or a function a host program registered
+    /// ([`ExternalRunner`]), with BDT's key point pairs when it takes them
+    /// (`keypoints` then set).
     External {
-        command: ExternalCommand,
+        runner: ExternalRunner,
         keypoints: Option<KeypointSource>,
         target: TargetPoints,
         options: KeypointOptions,
@@ -211,7 +212,7 @@ impl TransferMethod {
             },
             TransferMethod::Markers { baseline, .. } => baseline.name,
             TransferMethod::SumnerOracle => "sumner_oracle",
-            TransferMethod::External { .. } => "external",
+            TransferMethod::External { runner, .. } => runner.kind_name(),
         }
     }
 
@@ -328,7 +329,7 @@ impl TransferMethod {
                 Ok(out)
             }
             TransferMethod::External {
-                command,
+                runner,
                 keypoints,
                 target,
                 options,
@@ -350,7 +351,7 @@ impl TransferMethod {
                     _ => None,
                 };
                 let t = Instant::now();
-                let meshes = command.run(a, a_def, b, markers.as_deref())?;
+                let meshes = runner.run(a, a_def, b, markers.as_deref())?;
                 let mut out = TransferOutcome::new(meshes);
                 out.timings.solve = Some(t.elapsed().as_secs_f64());
                 out.keypoints = picked;
