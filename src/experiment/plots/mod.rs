@@ -105,6 +105,8 @@ pub fn column_label(c: &str) -> String {
         "err_mean_area" => "mean error to ground truth (√area units)".into(),
         "err_rms_area" => "RMS error to ground truth (√area units)".into(),
         "err_max_area" => "max error to ground truth (√area units)".into(),
+        "err_mean_area_rigid" => "mean error after the best rigid alignment (√area units)".into(),
+        "err_rms_area_rigid" => "RMS error after the best rigid alignment (√area units)".into(),
         "fit_error_unit" => "mean fit error on the source (unit-sphere units)".into(),
         "selection_error" => "key point selection error Ê".into(),
         "n_keypoints" => "number of key points".into(),
