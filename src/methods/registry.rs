@@ -31,13 +31,13 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::clustering::{Clustering, Examples};
+use super::external::{callable, ExternalCommand, ExternalRunner, DEFAULT_TIMEOUT};
+use super::keypoints::{KeypointSource, Pool, Strategy};
 use super::spec::{Epsilon, FbtSpec, MaxKeypoints, NCandidates};
-use crate::methods::external::{callable, ExternalCommand, ExternalRunner, DEFAULT_TIMEOUT};
-use crate::methods::transfer::{
-    cage_markers, rigid_markers, sumner_markers, MarkerBaseline, MarkerFn,
-};
-use crate::methods::{BdtOptions, Clustering, KeypointSource, TargetPoints, TransferMethod};
-use crate::methods::{Examples, Pool, Strategy, TargetCorrespondence};
+use super::target::{TargetCorrespondence, TargetPoints};
+use super::transfer::{cage_markers, rigid_markers, sumner_markers, MarkerBaseline, MarkerFn};
+use super::transfer::{BdtOptions, TransferMethod};
 use crate::ops::FpsMetric;
 use crate::range::{Int, NonNegative, Positive, Real, UnitInterval};
 use crate::skin::bbw::BbwOptions;
