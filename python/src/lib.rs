@@ -30,8 +30,8 @@ use deformlab::methods::completion::{
 };
 use deformlab::methods::external::{register_callable, unregister_callable, CallInput, CallableFn};
 use deformlab::methods::{
-    entry_from_table, resolve_entry, Family, KeypointSource, Method, MethodKind, PipelineSpec,
-    TargetCorrespondence, TargetPoints, TransferCase, TransferMethod,
+    transfer_method, KeypointSource, MethodKind, TargetCorrespondence, TargetPoints, TransferCase,
+    TransferMethod,
 };
 use deformlab::ops::heat::{HeatGeodesics, HeatOptions};
 use deformlab::ops::{cotan_laplacian, farthest_point_sampling, mass_matrix, FpsMetric, MassKind};
@@ -652,24 +652,13 @@ fn method_from_options(kind: &str, options: Option<&str>) -> PyResult<TransferMe
             table.insert(k, v);
         }
     }
-    let entry = entry_from_table(kind, &table).map_err(|(k, msg)| {
+    transfer_method(kind, &table).map_err(|(k, msg)| {
         value_err(if k.is_empty() {
-            format!("method: {msg}")
+            format!("method: {msg} (see deformlab.method_kinds())")
         } else {
-            format!("{k}: {msg}")
+            format!("{k}: {msg} (method {kind:?})")
         })
-    })?;
-    match resolve_entry(
-        &entry,
-        &PipelineSpec::default(),
-        KeypointOptions::default().seed,
-    ) {
-        Ok(Method::Transfer(m)) => Ok(m),
-        Ok(_) => Err(value_err(format!(
-            "method: {kind:?} is not a transfer method (see deformlab.method_kinds())"
-        ))),
-        Err((k, msg)) => Err(value_err(format!("{k}: {msg} (method {kind:?})"))),
-    }
+    })
 }
 
 /// The registry of method kinds: `(name, family, keys)` per kind.
@@ -679,12 +668,7 @@ fn method_kinds() -> Vec<(&'static str, &'static str, Vec<&'static str>)> {
         .iter()
         .map(|k| {
             let i = k.info();
-            let family = match i.family {
-                Family::Transfer => "transfer",
-                Family::Clustering => "clustering",
-                Family::Fbt => "fbt",
-            };
-            (i.name, family, i.key_list())
+            (i.name, i.family.name(), i.key_list())
         })
         .collect()
 }

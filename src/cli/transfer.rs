@@ -30,10 +30,9 @@ use deformlab::data::correspondence::{check_pairs, pair_map, read_pairs, PairFor
 use deformlab::experiment::range::Int;
 use deformlab::mesh::io::write_ply;
 use deformlab::methods::{
-    entry_from_table, resolve_entry, BdtOptions, Family, KeypointSource, Method, MethodKind,
-    PipelineSpec, TargetCorrespondence, TransferCase, TransferMethod,
+    transfer_method, BdtOptions, Family, KeypointSource, MethodKind, TargetCorrespondence,
+    TransferCase, TransferMethod,
 };
-use deformlab::transfer::KeypointOptions;
 use deformlab::transfer::{FrameAlign, TargetWeights, TransferFrame};
 use deformlab::{Error, Mesh, Result};
 
@@ -254,39 +253,16 @@ fn method_of(a: &TransferArgs) -> Result<TransferMethod> {
         t.insert(k.to_string(), parsed);
         flag_of.insert(k.to_string(), format!("--opt {k}"));
     }
-    let named = |key: &str| {
-        flag_of
-            .get(key)
-            .cloned()
-            .unwrap_or_else(|| format!("--opt {key}"))
-    };
     t.remove("name");
     t.remove("kind");
-    let entry = entry_from_table(&a.method, &t).map_err(|(k, msg)| {
-        Error::invalid(if k.is_empty() {
-            format!("--method {}: {msg}", a.method)
-        } else {
-            format!("{}: {msg}", named(&k))
+    transfer_method(&a.method, &t).map_err(|(key, msg)| {
+        let top = key.split('.').next().unwrap_or(&key);
+        Error::invalid(match flag_of.get(top) {
+            _ if key.is_empty() => format!("--method {}: {msg}", a.method),
+            Some(flag) => format!("{flag}: {msg}"),
+            None => format!("--method {}: `{key}`: {msg} (--opt {key}=...)", a.method),
         })
-    })?;
-    match resolve_entry(
-        &entry,
-        &PipelineSpec::default(),
-        KeypointOptions::default().seed,
-    ) {
-        Ok(Method::Transfer(m)) => Ok(m),
-        Ok(_) => Err(Error::invalid(format!(
-            "--method {}: not a transfer method",
-            a.method
-        ))),
-        Err((key, msg)) => {
-            let top = key.split('.').next().unwrap_or(&key).to_string();
-            Err(Error::invalid(match flag_of.get(&top) {
-                Some(flag) => format!("{flag}: {msg}"),
-                None => format!("--method {}: `{key}`: {msg} (--opt {key}=...)", a.method),
-            }))
-        }
-    }
+    })
 }
 
 fn stem(p: &Path) -> String {
@@ -353,7 +329,7 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
     check_option_dependencies(&a)?;
     // The method first: a bad option is refused before anything is read.
     let method = method_of(&a)?;
-    if method.clone().keypoint_inputs_mut().is_none() {
+    if method.keypoint_inputs().is_none() {
         refuse_keypoint_flags(&a)?;
     }
     // Output paths first, so nothing is computed for a run that would refuse.
@@ -439,7 +415,7 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
         };
     }
     let opts = method
-        .keypoint_inputs_mut()
+        .keypoint_inputs()
         .map(|(_, _, o)| o.clone())
         .unwrap_or_default();
     let (frame, refine, target_weights) = match &method {

@@ -24,8 +24,7 @@ use super::cases::Case;
 use super::config::{FbtTask, LoadedConfig, Method};
 use super::dataset::Collection;
 use crate::methods::completion::DictionaryKind;
-use crate::methods::{KeypointSource, Pool, TransferMethod};
-use crate::transfer::KeypointOptions;
+use crate::methods::{KeypointSource, Pool};
 use crate::{Error, Result};
 
 /// How a key of method `i` is named in messages: where it is set (the
@@ -95,23 +94,8 @@ pub fn check_against_data(l: &LoadedConfig, col: &Collection, cases: &[&Case]) -
             );
             match &m.method {
                 Method::Transfer(t) => {
-                    let (source, opts): (&KeypointSource, &KeypointOptions) = match t {
-                        TransferMethod::Bdt {
-                            keypoints, options, ..
-                        } => (keypoints, &options.keypoints),
-                        TransferMethod::Markers {
-                            keypoints, options, ..
-                        }
-                        | TransferMethod::External {
-                            keypoints: Some(keypoints),
-                            options,
-                            ..
-                        } => (keypoints, options),
-                        TransferMethod::Identity
-                        | TransferMethod::SumnerOracle
-                        | TransferMethod::External {
-                            keypoints: None, ..
-                        } => continue,
+                    let Some((source, _, opts)) = t.keypoint_inputs() else {
+                        continue;
                     };
                     match source {
                         KeypointSource::Automatic { selection_poses } => {

@@ -352,20 +352,7 @@ fn record_timings(o: &TransferOutcome, out: &mut CaseResult) {
 
 /// The key point selection options of a method that selects key points.
 fn selection_options(m: &TransferMethod) -> Option<&KeypointOptions> {
-    match m {
-        TransferMethod::Bdt { options, .. } => Some(&options.keypoints),
-        TransferMethod::Markers { options, .. }
-        | TransferMethod::External {
-            keypoints: Some(_),
-            options,
-            ..
-        } => Some(options),
-        TransferMethod::Identity
-        | TransferMethod::SumnerOracle
-        | TransferMethod::External {
-            keypoints: None, ..
-        } => None,
-    }
+    m.keypoint_inputs().map(|(_, _, o)| o)
 }
 
 /// `n_keypoints`, `keypoints`, `seconds_selection` and, for an automatic
@@ -405,19 +392,8 @@ fn record_target(
     method: &TransferMethod,
     out: &mut CaseResult,
 ) -> Result<()> {
-    let target = match method {
-        TransferMethod::Bdt { target, .. }
-        | TransferMethod::Markers { target, .. }
-        | TransferMethod::External {
-            keypoints: Some(_),
-            target,
-            ..
-        } => target,
-        TransferMethod::Identity
-        | TransferMethod::SumnerOracle
-        | TransferMethod::External {
-            keypoints: None, ..
-        } => return Ok(()),
+    let Some((_, target, _)) = method.keypoint_inputs() else {
+        return Ok(());
     };
     let name = match &target.correspondence {
         TargetCorrespondence::Identity => "identity",

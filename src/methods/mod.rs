@@ -41,8 +41,8 @@ pub use keypoints::{
     extremity_keypoints, random_keypoints, KeypointSource, PickedKeypoints, Pool, Strategy,
 };
 pub use registry::{
-    entry_from_table, resolve_entry, Family, KindInfo, Method, MethodEntry, MethodKind,
-    NamedMethod, PipelineSpec,
+    entry_from_table, resolve_entry, transfer_method, Family, KindInfo, Method, MethodEntry,
+    MethodKind, NamedMethod, PipelineSpec,
 };
 pub use spec::{FbtSpec, FbtTask};
 pub use target::{TargetCorrespondence, TargetFound, TargetPoints};

@@ -282,6 +282,17 @@ pub enum Family {
     Fbt,
 }
 
+impl Family {
+    /// The family's name (in the reference and the binding's `method_kinds`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Family::Transfer => "transfer",
+            Family::Clustering => "clustering",
+            Family::Fbt => "fbt",
+        }
+    }
+}
+
 /// How an entry becomes a library value: the kind's constructor, given
 /// the entry's keys resolved over the defaults ([`Resolving`]).
 pub type Build = fn(&Resolving) -> std::result::Result<Method, (String, String)>;
@@ -587,6 +598,28 @@ pub fn entry_from_table(
     with(&mut table.iter()).map_err(|e| (String::new(), e.message().trim().to_string()))
 }
 
+/// A transfer method from its kind and options, resolved as a config entry
+/// with no `[defaults]` and the library's default seed: what `deformlab
+/// transfer --method KIND --opt KEY=VALUE` and the binding's
+/// `transfer(method=KIND, **options)` run. Errors are `(key, message)`, the
+/// key empty when the kind itself is wrong.
+pub fn transfer_method(
+    kind: &str,
+    table: &toml::Table,
+) -> std::result::Result<TransferMethod, (String, String)> {
+    let entry = entry_from_table(kind, table)?;
+    match resolve_entry(
+        &entry,
+        &PipelineSpec::default(),
+        KeypointOptions::default().seed,
+    )? {
+        Method::Transfer(m) => Ok(m),
+        Method::Clustering(_) | Method::Fbt { .. } => {
+            Err((String::new(), format!("{kind:?} is not a transfer method")))
+        }
+    }
+}
+
 /// The entry keys set on `m` (besides `name`, `kind`, `group`, `label`),
 /// in the schema's order: read from the entry's serialisation, so that a
 /// new field of [`MethodEntry`] is checked without listing it here.
@@ -882,12 +915,12 @@ pub fn reference_markdown() -> String {
     );
     for k in MethodKind::ALL {
         let i = k.info();
-        let family = match i.family {
-            Family::Transfer => "transfer",
-            Family::Clustering => "clustering",
-            Family::Fbt => "fbt",
-        };
-        s.push_str(&format!("| `{}` | {family} | {} |\n", i.name, i.summary));
+        s.push_str(&format!(
+            "| `{}` | {} | {} |\n",
+            i.name,
+            i.family.name(),
+            i.summary
+        ));
     }
     s.push_str("\n## Keys per kind\n");
     for k in MethodKind::ALL {

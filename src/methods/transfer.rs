@@ -230,12 +230,6 @@ impl TransferMethod {
             | TransferMethod::External {
                 keypoints: None, ..
             } => None,
-            TransferMethod::External {
-                keypoints: Some(keypoints),
-                target,
-                options,
-                ..
-            } => Some((keypoints, target, options)),
             TransferMethod::Bdt {
                 keypoints,
                 target,
@@ -243,6 +237,41 @@ impl TransferMethod {
             } => Some((keypoints, target, &mut options.keypoints)),
             TransferMethod::Markers {
                 keypoints,
+                target,
+                options,
+                ..
+            }
+            | TransferMethod::External {
+                keypoints: Some(keypoints),
+                target,
+                options,
+                ..
+            } => Some((keypoints, target, options)),
+        }
+    }
+
+    /// [`Self::keypoint_inputs_mut`], read only: what the harness records
+    /// and checks of a method that takes key points.
+    pub fn keypoint_inputs(&self) -> Option<(&KeypointSource, &TargetPoints, &KeypointOptions)> {
+        match self {
+            TransferMethod::Identity
+            | TransferMethod::SumnerOracle
+            | TransferMethod::External {
+                keypoints: None, ..
+            } => None,
+            TransferMethod::Bdt {
+                keypoints,
+                target,
+                options,
+            } => Some((keypoints, target, &options.keypoints)),
+            TransferMethod::Markers {
+                keypoints,
+                target,
+                options,
+                ..
+            }
+            | TransferMethod::External {
+                keypoints: Some(keypoints),
                 target,
                 options,
                 ..
