@@ -5,7 +5,7 @@
 //! checked while the TOML is read, so an out-of-range value is an error
 //! naming the file, the key, the line, the value and the range before
 //! anything runs. A command-line flag with the same meaning uses the same
-//! range through a type alias ([`super::config::NCandidates`], …) and its
+//! range through a type alias ([`crate::methods::spec::NCandidates`], …) and its
 //! `parse` function as the clap value parser. `experiments/README.md` lists
 //! every key with its range (a test compares them).
 //!

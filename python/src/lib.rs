@@ -21,7 +21,6 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use deformlab::data::synthetic::FaustStyle;
-use deformlab::experiment::config::{Epsilon, MaxKeypoints, NCandidates};
 use deformlab::experiment::{run_configs, LoadOptions, RunOptions};
 use deformlab::mesh::validate::{DefectReport, Offenders};
 use deformlab::mesh::{Face, RawMesh};
@@ -29,13 +28,13 @@ use deformlab::methods::completion::{
     CompletionProblem, CompletionSolver, FbtOptions, FeatureOptions, PipelineKind, SolverKind,
 };
 use deformlab::methods::external::{register_callable, unregister_callable, CallInput, CallableFn};
+use deformlab::methods::spec::{Epsilon, MaxKeypoints, NCandidates};
 use deformlab::methods::{
-    transfer_method, KeypointSource, MethodKind, TargetCorrespondence, TargetPoints, TransferCase,
+    transfer_method, FbtRegistrar, KeypointSource, MethodKind, TargetCorrespondence, TargetPoints, TransferCase,
     TransferMethod,
 };
 use deformlab::ops::heat::{HeatGeodesics, HeatOptions};
 use deformlab::ops::{cotan_laplacian, farthest_point_sampling, mass_matrix, FpsMetric, MassKind};
-use deformlab::register::{vertex_rows, FbtSetup, Schedule};
 use deformlab::skin::bbw::{bounded_biharmonic_weights, BbwOptions, WeightMode};
 use deformlab::solve::{generalized_eigen, EigenOptions};
 use deformlab::transfer::keypoints::{ErrorNorm, KeypointOptions, SelectionMode};
@@ -899,7 +898,7 @@ struct PyFbtModel {
     rig: Vec<Mesh>,
     options: FbtOptions,
     seed: u64,
-    setup: Option<FbtSetup>,
+    setup: Option<FbtRegistrar>,
 }
 
 #[pymethods]
@@ -1028,21 +1027,16 @@ impl PyFbtModel {
                 y.len()
             )));
         }
-        let ymat = DMatrix::from_fn(y.len(), 3, |r, c| y[r][c]);
         if self.setup.is_none() {
-            let (ex, rig, cfg) = (&self.examples, &self.rig, self.options.config(self.seed));
+            let (ex, rig, o, seed) = (&self.examples, &self.rig, &self.options, self.seed);
             let s = py
-                .detach(|| deformlab::register::build_with_rig(ex, rig, &cfg))
+                .detach(|| FbtRegistrar::build(ex, rig, o, seed))
                 .map_err(py_err)?;
             self.setup = Some(s);
         }
         let setup = self.setup.as_ref().expect("built above");
-        let params = self.options.params();
         let reg = py
-            .detach(|| {
-                let sys = setup.pipeline.systems(&vertex_rows(&idx), &params)?;
-                sys.solve(&ymat, &Schedule::default())
-            })
+            .detach(|| setup.register_vertices(&idx, &y))
             .map_err(py_err)?;
         let d = PyDict::new(py);
         d.set_item("V", points_array(py, &reg.positions))?;

@@ -10,10 +10,10 @@ use std::time::Instant;
 use clap::Args;
 use serde_json::{json, Value};
 
-use deformlab::experiment::config::{Epsilon, MaxKeypoints, NCandidates};
 use deformlab::mesh::io::{read_mesh, write_atomic};
 use deformlab::mesh::repair::{DefectPolicy, FaceRepair};
 use deformlab::mesh::Face;
+use deformlab::methods::spec::{Epsilon, MaxKeypoints, NCandidates};
 use deformlab::methods::KeypointSource;
 use deformlab::skin::bbw::{BbwOptions, WeightMode};
 use deformlab::transfer::keypoints::{

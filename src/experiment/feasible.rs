@@ -186,7 +186,7 @@ pub fn check_against_data(l: &LoadedConfig, col: &Collection, cases: &[&Case]) -
                         ));
                     }
                 }
-                Method::Fbt { spec, .. } => {
+                Method::Fbt(f) => {
                     if case.target != case.source {
                         return Err(Error::parse(
                             &l.path,
@@ -199,7 +199,7 @@ pub fn check_against_data(l: &LoadedConfig, col: &Collection, cases: &[&Case]) -
                             ),
                         ));
                     }
-                    let o = spec.resolve();
+                    let o = &f.options;
                     let Some(subject) = col.subject(&case.source) else {
                         continue;
                     };
@@ -210,7 +210,7 @@ pub fn check_against_data(l: &LoadedConfig, col: &Collection, cases: &[&Case]) -
                         .chain(&subject.extra)
                         .filter(|p| p.id != target && p.id != case.reference)
                         .count();
-                    let interpolation = spec.task == FbtTask::Interpolation;
+                    let interpolation = f.task == FbtTask::Interpolation;
                     let most = if interpolation { others } else { others + 1 };
                     if o.q > most {
                         return Err(bad(
@@ -231,14 +231,7 @@ pub fn check_against_data(l: &LoadedConfig, col: &Collection, cases: &[&Case]) -
                             ),
                         ));
                     }
-                    let uses_features = matches!(
-                        spec.task,
-                        FbtTask::Timing
-                            | FbtTask::Completion
-                            | FbtTask::Permutation
-                            | FbtTask::Interpolation
-                    );
-                    if uses_features && o.features.features > n {
+                    if f.uses_features() && o.features.features > n {
                         return Err(bad(
                             fbt_key(l, i, "features", o.features.features),
                             format!(
@@ -248,7 +241,7 @@ pub fn check_against_data(l: &LoadedConfig, col: &Collection, cases: &[&Case]) -
                             ),
                         ));
                     }
-                    if spec.task == FbtTask::Scale && o.vertices > n {
+                    if f.task == FbtTask::Scale && o.vertices > n {
                         return Err(bad(
                             fbt_key(l, i, "vertices", o.vertices),
                             format!(
@@ -258,8 +251,8 @@ pub fn check_against_data(l: &LoadedConfig, col: &Collection, cases: &[&Case]) -
                             ),
                         ));
                     }
-                    if spec.task == FbtTask::Projection
-                        && spec.dictionary == Some(DictionaryKind::Skeleton)
+                    if f.task == FbtTask::Projection
+                        && f.dictionary == DictionaryKind::Skeleton
                         && o.rig_poses > others
                     {
                         return Err(bad(

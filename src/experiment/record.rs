@@ -161,9 +161,9 @@ pub fn run_method(
     let outer_waits = crate::data::memo::take_waited(0.0);
     let result = (|| -> Result<()> {
         match &m.method {
-            Method::Fbt { spec, seed } => {
+            Method::Fbt(f) => {
                 let render = render.map(|r| (r, m.name.as_str()));
-                super::fbt::run(col, case, spec, *seed, metrics, render, out)?;
+                super::fbt::run(col, case, f, metrics, render, out)?;
             }
             Method::Transfer(t) => {
                 let cm = CaseMeshes::load(col, case)?;

@@ -778,12 +778,10 @@ fn add_sweep_plots(
             };
             let metric = match &first.method {
                 Method::Transfer(_) => "err_mean_area",
-                Method::Fbt { spec, .. } if spec.task == FbtTask::Completion => {
-                    "rel_distortion_mean"
-                }
-                Method::Fbt { spec, .. } if spec.task == FbtTask::Scale => "alpha_error",
+                Method::Fbt(f) if f.task == FbtTask::Completion => "rel_distortion_mean",
+                Method::Fbt(f) if f.task == FbtTask::Scale => "alpha_error",
                 Method::Clustering(_) => "ari",
-                Method::Fbt { .. } => continue,
+                Method::Fbt(_) => continue,
             };
             add.push(PlotSpec {
                 file: several.then(|| format!("line_{col}_{t}")),

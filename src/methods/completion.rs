@@ -211,6 +211,15 @@ impl FbtOptions {
         c
     }
 
+    /// The feature circles of the tasks with a full target (`permutation`,
+    /// `interpolation`): radius `full_target_radius`.
+    pub fn full_target_features(&self) -> FeatureOptions {
+        FeatureOptions {
+            radius: self.full_target_radius,
+            ..self.features
+        }
+    }
+
     /// NICP options (`nicp_iterations`, sample placement seeded by `seed`).
     pub fn nicp_options(&self, seed: u64) -> NicpOptions {
         NicpOptions {

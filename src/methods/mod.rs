@@ -10,7 +10,9 @@
 //!   the Sumner oracle, cage DT, and `identity` (B unchanged: the floor of
 //!   every transfer evaluation); [`TransferMethod::run`];
 //! * [`Clustering`]: rotation-group clustering (BDT Fig. 4);
-//! * [`completion`]: shape completion / partial registration (FBT).
+//! * [`fbt`]: the FBT tasks ([`FbtMethod`], one resolved `kind = "fbt"`
+//!   method; [`fbt::FbtRegistrar`], the registration they share);
+//!   [`completion`]: shape completion / partial registration (FBT).
 //!
 //! Every options struct has one [`Default`], which the CLI flags and the
 //! config keys fall back to; the enums are closed and every `match` over
@@ -30,6 +32,7 @@
 pub mod clustering;
 pub mod completion;
 pub mod external;
+pub mod fbt;
 pub mod keypoints;
 pub mod registry;
 pub mod spec;
@@ -37,6 +40,7 @@ pub mod target;
 pub mod transfer;
 
 pub use clustering::{Clustering, ClusteringOutcome, Examples};
+pub use fbt::{ClassShapes, FbtMethod, FbtRegistrar};
 pub use keypoints::{
     extremity_keypoints, random_keypoints, KeypointSource, PickedKeypoints, Pool, Strategy,
 };

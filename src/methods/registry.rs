@@ -33,6 +33,7 @@ use serde::{Deserialize, Serialize};
 
 use super::clustering::{Clustering, Examples};
 use super::external::{callable, ExternalCommand, ExternalRunner, DEFAULT_TIMEOUT};
+use super::fbt::FbtMethod;
 use super::keypoints::{KeypointSource, Pool, Strategy};
 use super::spec::{Epsilon, FbtSpec, MaxKeypoints, NCandidates};
 use super::target::{TargetCorrespondence, TargetPoints};
@@ -496,8 +497,9 @@ impl MethodKind {
                                 .to_string(),
                         )
                     })?;
-                    spec.check().map_err(|(k, msg)| (format!("fbt.{k}"), msg))?;
-                    Ok(Method::Fbt { spec, seed: r.seed })
+                    let fbt = FbtMethod::new(spec, r.seed)
+                        .map_err(|(k, msg)| (format!("fbt.{k}"), msg))?;
+                    Ok(Method::Fbt(fbt))
                 },
             ),
         }
@@ -526,8 +528,8 @@ pub enum Method {
     Transfer(TransferMethod),
     /// Rotation-group clustering of the source (no transfer).
     Clustering(Clustering),
-    /// FBT (its tasks run by [`crate::experiment::fbt`]).
-    Fbt { spec: FbtSpec, seed: u64 },
+    /// An FBT task ([`super::fbt`]), resolved once.
+    Fbt(FbtMethod),
 }
 
 impl Method {
@@ -536,7 +538,7 @@ impl Method {
         match self {
             Method::Transfer(t) => t.kind_name(),
             Method::Clustering(_) => "clustering",
-            Method::Fbt { .. } => "fbt",
+            Method::Fbt(_) => "fbt",
         }
     }
 
@@ -545,7 +547,7 @@ impl Method {
     pub fn transfers(&self) -> bool {
         match self {
             Method::Transfer(_) => true,
-            Method::Clustering(_) | Method::Fbt { .. } => false,
+            Method::Clustering(_) | Method::Fbt(_) => false,
         }
     }
 }
@@ -614,7 +616,7 @@ pub fn transfer_method(
         KeypointOptions::default().seed,
     )? {
         Method::Transfer(m) => Ok(m),
-        Method::Clustering(_) | Method::Fbt { .. } => {
+        Method::Clustering(_) | Method::Fbt(_) => {
             Err((String::new(), format!("{kind:?} is not a transfer method")))
         }
     }

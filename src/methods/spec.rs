@@ -174,10 +174,6 @@ pub struct FbtSpec {
 }
 
 impl FbtSpec {
-    pub fn q(&self) -> usize {
-        self.resolve().q
-    }
-
     /// The typed options: every unset field takes its default from
     /// [`FbtOptions::default`] (the task-independent defaults; the full
     /// target tasks' circle radius is `full_target_radius`).
