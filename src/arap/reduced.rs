@@ -6,7 +6,8 @@ use std::sync::Arc;
 use nalgebra::{Cholesky, DMatrix, Dyn};
 
 use crate::mesh::Mesh;
-use crate::ops::{cotan_weights, polar_decomposition};
+use crate::ops::polar_decomposition;
+use crate::ops::Operators;
 use crate::skin::lbs::lbs_operator_transposed;
 use crate::skin::lbs::{points_from_matrix, points_to_matrix};
 use crate::skin::{transforms_from_stacked, Affine};
@@ -98,10 +99,11 @@ impl ArapMesh {
     pub fn new(mesh: &Mesh) -> Self {
         let n = mesh.n_vertices();
         let rest = mesh.vertices().to_vec();
-        let edges: Vec<(usize, usize, f64)> = cotan_weights(mesh)
-            .into_iter()
-            .filter(|&(_, w)| w > 0.0)
-            .map(|((i, j), w)| (i, j, w))
+        let edges: Vec<(usize, usize, f64)> = mesh
+            .edge_weights()
+            .iter()
+            .filter(|&&(_, w)| w > 0.0)
+            .map(|&((i, j), w)| (i, j, w))
             .collect();
         let mut count = vec![0usize; n + 1];
         let mut diag = vec![0.0; n];

@@ -52,7 +52,8 @@
 use nalgebra::DMatrix;
 
 use crate::mesh::Mesh;
-use crate::ops::{edges, mass_matrix, MassKind};
+use crate::ops::edges;
+use crate::ops::Operators;
 use crate::register::{ConstraintRows, Matcher, NicpOptions};
 use crate::solve::{sparse_from_triplets, SymbolicCholesky};
 use crate::{Error, Point, Result, Vec3};
@@ -173,12 +174,7 @@ pub fn amberg_nicp(
             [q.x, q.y, q.z, 1.0]
         })
         .collect();
-    let matcher = Matcher::new(
-        template,
-        mass_matrix(template, MassKind::Voronoi).iter().sum(),
-        target,
-        &opts.icp,
-    )?;
+    let matcher = Matcher::new(template, template.mass_area(), target, &opts.icp)?;
     let edge_list = edges(template);
     let g2 = [1.0, 1.0, 1.0, opts.gamma * opts.gamma];
     const EPS: f64 = 1e-8;

@@ -90,7 +90,8 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::mesh::Mesh;
 use crate::ops::rotation::{rotation_exp_axis_angle, rotation_log_axis_angle};
-use crate::ops::{cotan_weights, mass_matrix, polar_decomposition, vertex_normals, MassKind};
+use crate::ops::Operators;
+use crate::ops::{polar_decomposition, vertex_normals};
 use crate::register::{ConstraintRows, Matcher, NicpOptions};
 use crate::solve::{sparse_from_triplets, SymbolicCholesky};
 use crate::{Error, Mat3, Point, Result, Vec3};
@@ -257,7 +258,7 @@ impl DerModel {
         let r = clusters.iter().max().map_or(0, |m| m + 1);
         // Spokes (i → j) of clamped cotangent weights.
         let mut nb: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
-        for ((i, j), w) in cotan_weights(reference) {
+        for &((i, j), w) in reference.edge_weights().iter() {
             if w > 0.0 {
                 nb[i].push((j, w));
                 nb[j].push((i, w));
@@ -349,7 +350,7 @@ impl DerModel {
             examples: examples.iter().map(|m| m.vertices().to_vec()).collect(),
             clusters: clusters.to_vec(),
             r,
-            area: mass_matrix(reference, MassKind::Voronoi).iter().sum(),
+            area: reference.mass_area(),
             lap,
             spokes,
             lap_diag_mean,

@@ -60,7 +60,8 @@ use super::sumner::{
 };
 use crate::mesh::Mesh;
 use crate::ops::closest_point_on_triangle;
-use crate::ops::{face_normals, vertex_faces, vertex_normals};
+use crate::ops::Operators;
+use crate::ops::{face_normals, vertex_normals};
 use crate::register::PointIndex;
 use crate::solve::{sparse_from_triplets, SparseCholesky};
 use crate::{Error, Mat3, Point, Result, Vec3};
@@ -210,7 +211,7 @@ pub fn check_markers(markers: &[(usize, usize)], n_source: usize, n_target: usiz
 struct ClosestValid<'a> {
     target: &'a Mesh,
     tree: PointIndex,
-    vf: crate::ops::adjacency::Csr,
+    vf: std::sync::Arc<crate::ops::adjacency::Csr>,
     normals: Vec<Vec3>,
     k: usize,
     cos_max: f64,
@@ -221,7 +222,7 @@ impl<'a> ClosestValid<'a> {
         Ok(ClosestValid {
             target,
             tree: PointIndex::new(target.vertices())?,
-            vf: vertex_faces(target),
+            vf: target.incident_faces(),
             normals: face_normals(target),
             k: neighbours,
             cos_max,

@@ -26,9 +26,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::mesh::{Face, Mesh};
-use crate::ops::{
-    dijkstra_distances, face_areas, farthest_point_sampling, vertex_neighbours, FpsMetric,
-};
+use crate::ops::Operators;
+use crate::ops::{dijkstra_distances, face_areas, farthest_point_sampling, FpsMetric};
 use crate::{Error, Result, Vec3};
 
 /// Options of [`make_partial`].
@@ -132,7 +131,7 @@ pub fn make_partial(
         return Err(Error::invalid("partial shape: the mesh has no area"));
     }
     let s = total.sqrt();
-    let nb = vertex_neighbours(full);
+    let nb = full.neighbours();
     let mut protected = vec![false; n];
     if !features.is_empty() {
         let d = dijkstra_distances(full, features)?;

@@ -25,7 +25,8 @@ use nalgebra::Matrix3;
 use crate::mesh::Mesh;
 use crate::ops::geodesic::EdgeGraph;
 use crate::ops::normalize::{unit_sphere_transform, NormalizeReference};
-use crate::ops::{cotan_weights, face_areas, polar_decomposition, total_area};
+use crate::ops::Operators;
+use crate::ops::{face_areas, polar_decomposition, total_area};
 use crate::{Error, Mat3, Point, Result, Vec3};
 
 /// Factors that turn raw distances into normalised units (see the module
@@ -365,18 +366,10 @@ pub fn arap_energy(rest: &Mesh, deformed: &[Point]) -> Result<(f64, f64)> {
         )));
     }
     let p = rest.vertices();
-    let mut edges = cotan_weights(rest);
-    // Merge the per-face contributions of each edge.
-    edges.sort_by_key(|e| e.0);
-    let mut merged: Vec<((usize, usize), f64)> = Vec::with_capacity(edges.len() / 2 + 1);
-    for (e, w) in edges {
-        match merged.last_mut() {
-            Some((last, acc)) if *last == e => *acc += w,
-            _ => merged.push((e, w)),
-        }
-    }
+    // One weight per undirected edge (the faces' contributions summed).
+    let merged = rest.edge_weights();
     let mut cov = vec![Matrix3::<f64>::zeros(); n];
-    for &((i, j), w) in &merged {
+    for &((i, j), w) in merged.iter() {
         let w = w.max(0.0);
         let e = p[j] - p[i];
         let e2 = deformed[j] - deformed[i];
@@ -390,7 +383,7 @@ pub fn arap_energy(rest: &Mesh, deformed: &[Point]) -> Result<(f64, f64)> {
         .map(|m| polar_decomposition(m).map(|p| p.rotation))
         .collect::<Result<Vec<Mat3>>>()?;
     let (mut energy, mut norm) = (0.0, 0.0);
-    for &((i, j), w) in &merged {
+    for &((i, j), w) in merged.iter() {
         let w = w.max(0.0);
         let e = p[j] - p[i];
         let e2 = deformed[j] - deformed[i];

@@ -6,13 +6,17 @@
 //! every face index is in range and every coordinate is finite.
 
 pub mod compact;
+pub mod derived;
 pub mod io;
 pub mod primitives;
 pub mod repair;
 pub mod set;
 pub mod validate;
 
+use std::sync::Arc;
+
 use crate::{Error, Point, Result};
+use derived::Derived;
 
 /// A triangle, as three vertex indices (counter-clockwise seen from outside).
 pub type Face = [usize; 3];
@@ -28,10 +32,33 @@ pub struct RawMesh {
 /// coordinates are finite. Defects that algorithms can live with (boundaries,
 /// non-manifold edges, degenerate faces) are allowed and reported by
 /// [`validate::DefectReport`].
-#[derive(Clone, Debug, PartialEq)]
+///
+/// Values computed from a mesh (Laplacian, mass, adjacency: see
+/// [`crate::ops::Operators`]) are kept with it and shared by its clones
+/// ([`derived`]): a mesh never changes, so they stay valid.
+#[derive(Clone)]
 pub struct Mesh {
     vertices: Vec<Point>,
     faces: Vec<Face>,
+    /// Values of the geometry (vertices and faces).
+    geometry: Arc<Derived>,
+    /// Values of the connectivity alone (kept by `with_vertices`).
+    topology: Arc<Derived>,
+}
+
+impl PartialEq for Mesh {
+    fn eq(&self, other: &Self) -> bool {
+        self.vertices == other.vertices && self.faces == other.faces
+    }
+}
+
+impl std::fmt::Debug for Mesh {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Mesh")
+            .field("vertices", &self.vertices)
+            .field("faces", &self.faces)
+            .finish()
+    }
 }
 
 impl Mesh {
@@ -50,7 +77,12 @@ impl Mesh {
                 )));
             }
         }
-        Ok(Mesh { vertices, faces })
+        Ok(Mesh {
+            vertices,
+            faces,
+            geometry: Arc::default(),
+            topology: Arc::default(),
+        })
     }
 
     /// Vertex positions.
@@ -87,6 +119,8 @@ impl Mesh {
         Ok(Mesh {
             vertices,
             faces: self.faces.clone(),
+            geometry: Arc::default(),
+            topology: self.topology.clone(),
         })
     }
 
@@ -94,6 +128,17 @@ impl Mesh {
     /// one adopted from a set). Indices are checked.
     pub fn with_faces(&self, faces: Vec<Face>) -> Result<Self> {
         Mesh::new(self.vertices.clone(), faces)
+    }
+
+    /// Values computed from the vertices and faces ([`derived`]).
+    pub fn geometry_values(&self) -> &Derived {
+        &self.geometry
+    }
+
+    /// Values computed from the faces alone, shared with every
+    /// [`with_vertices`](Mesh::with_vertices) copy ([`derived`]).
+    pub fn topology_values(&self) -> &Derived {
+        &self.topology
     }
 
     /// Moves the parts out.

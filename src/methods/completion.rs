@@ -23,7 +23,7 @@ use rand_chacha::ChaCha8Rng;
 use crate::baselines::{amberg_nicp, AmbergOptions, DerModel, DerOptions};
 use crate::data::partial::{feature_points, make_partial, PartialOptions, PartialShape};
 use crate::mesh::Mesh;
-use crate::ops::{mass_matrix, MassKind};
+use crate::ops::Operators;
 use crate::register::{
     apply_rows, build_with_rig, circle_radii, feature_circle_constraints, metrics, nicp,
     ClusterSource, ConstraintRows, DictionaryExamples, FbtConfig, FbtParams, InitMethod,
@@ -254,10 +254,7 @@ fn reference_and_area(examples: &[Mesh]) -> Result<(&Mesh, f64)> {
     let reference = examples
         .first()
         .ok_or_else(|| Error::invalid("a completion problem needs an example"))?;
-    Ok((
-        reference,
-        mass_matrix(reference, MassKind::Voronoi).iter().sum(),
-    ))
+    Ok((reference, reference.mass_area()))
 }
 
 impl CompletionProblem {

@@ -11,9 +11,8 @@ use serde::{Deserialize, Serialize};
 use crate::data::memo::{meshes_hash, Memo};
 use crate::mesh::Mesh;
 use crate::ops::geodesic::EdgeGraph;
-use crate::ops::{
-    farthest_point_sampling, farthest_point_sampling_from, total_area, vertex_neighbours, FpsMetric,
-};
+use crate::ops::Operators;
+use crate::ops::{farthest_point_sampling, farthest_point_sampling_from, total_area, FpsMetric};
 use crate::transfer::{
     fit_keypoints, perturb_keypoints, select_keypoints, KeypointFit, KeypointOptions,
     KeypointSelection,
@@ -247,7 +246,7 @@ pub fn extremity_keypoints(
         }
         Strategy::Eccentricity => {
             let d = graph.distances(&[c])?;
-            let nb = vertex_neighbours(a);
+            let nb = a.neighbours();
             let mut maxima: Vec<usize> = (0..n)
                 .filter(|&i| {
                     d[i].is_finite() && d[i] > 0.0 && nb.row(i).iter().all(|&j| d[i] >= d[j])

@@ -5,6 +5,7 @@
 //! vertex (e.g. `[a, a, b]`) contributes no self-loop `(a, a)`; its other edge
 //! is kept.
 
+use super::operators::{count, Counted};
 use crate::mesh::Mesh;
 
 /// A list of sorted index lists in compressed-row (CSR-like) form: row `i`
@@ -74,6 +75,7 @@ impl Csr {
 /// Vertex → neighbouring vertices (the 1-ring), sorted, one row per vertex.
 /// Vertices not used by any face have an empty row.
 pub fn vertex_neighbours(mesh: &Mesh) -> Csr {
+    count(Counted::Neighbours);
     let mut pairs = Vec::with_capacity(mesh.n_faces() * 6);
     for &[a, b, c] in mesh.faces() {
         for (i, j) in [(a, b), (b, c), (c, a)] {
@@ -88,6 +90,7 @@ pub fn vertex_neighbours(mesh: &Mesh) -> Csr {
 
 /// Vertex → incident faces (face indices, sorted), one row per vertex.
 pub fn vertex_faces(mesh: &Mesh) -> Csr {
+    count(Counted::IncidentFaces);
     let pairs = mesh
         .faces()
         .iter()

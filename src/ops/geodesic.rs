@@ -31,13 +31,14 @@ use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
 use crate::mesh::Mesh;
-use crate::ops::adjacency::{vertex_neighbours, Csr};
+use crate::ops::adjacency::Csr;
+use crate::ops::Operators;
 use crate::{Error, Result};
 
 /// Edge graph of a mesh with edge lengths, built once and queried many times.
 #[derive(Clone, Debug)]
 pub struct EdgeGraph {
-    neighbours: Csr,
+    neighbours: std::sync::Arc<Csr>,
     /// Length of the edge to `neighbours.indices()[k]`, aligned with it.
     lengths: Vec<f64>,
 }
@@ -71,7 +72,7 @@ impl EdgeGraph {
     /// Builds the graph of `mesh`'s edges (1-rings from
     /// [`vertex_neighbours`], Euclidean lengths).
     pub fn new(mesh: &Mesh) -> Self {
-        let neighbours = vertex_neighbours(mesh);
+        let neighbours = mesh.neighbours();
         let v = mesh.vertices();
         let mut lengths = Vec::with_capacity(neighbours.nnz());
         for (i, row) in neighbours.rows().enumerate() {

@@ -41,10 +41,9 @@
 use nalgebra::DMatrix;
 
 use crate::mesh::Mesh;
-use crate::ops::adjacency::vertex_neighbours;
-use crate::ops::laplacian::cotan_weights;
 use crate::ops::normals::vertex_area_normals;
 use crate::ops::rotation::{polar_decomposition, rotation_log, scale_shear_vector};
+use crate::ops::Operators;
 use crate::{Error, Mat3, Result, Vec3};
 
 /// Weights below `CLAMP_REL` times the mean absolute 1-ring weight are
@@ -86,8 +85,8 @@ pub fn deformation_gradients(rest: &Mesh, deformed: &Mesh) -> Result<Vec<Mat3>> 
     check_pair(rest, deformed)?;
     let p = rest.vertices();
     let q = deformed.vertices();
-    let weights = cotan_weights(rest);
-    let nb = vertex_neighbours(rest);
+    let weights = rest.edge_weights();
+    let nb = rest.neighbours();
     let np = vertex_area_normals(rest);
     let nq = vertex_area_normals(deformed);
     let weight = |i: usize, j: usize| -> f64 {

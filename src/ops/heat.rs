@@ -37,7 +37,8 @@
 //! 0.11 s, one `distance` 7 ms.
 
 use crate::mesh::Mesh;
-use crate::ops::laplacian::{cotan_laplacian, mass_matrix, MassKind, DEGENERATE_REL};
+use crate::ops::laplacian::{MassKind, DEGENERATE_REL};
+use crate::ops::Operators;
 use crate::solve::{sparse_from_triplets, SparseCholesky, SymbolicCholesky};
 use crate::{Error, Result, Vec3};
 
@@ -125,8 +126,8 @@ impl HeatGeodesics {
         let h = edge_sum / edge_count as f64;
         let t = opts.time_factor * h * h;
 
-        let l = cotan_laplacian(mesh);
-        let m = mass_matrix(mesh, opts.mass);
+        let l = mesh.laplacian();
+        let m = mesh.mass(opts.mass);
         if let Some(i) = m.iter().position(|&x| x <= 0.0) {
             return Err(Error::invalid(format!(
                 "vertex {i} has zero mass (unreferenced or only in degenerate faces)"

@@ -10,6 +10,7 @@
 //! a vanishing element and keeps needles from injecting cotangents of 1e10 and
 //! more. Such faces are reported by the defect report.
 
+use super::operators::{count, Counted};
 use crate::mesh::Mesh;
 use crate::solve::SparseMatrix;
 
@@ -64,6 +65,7 @@ fn corner_cotangents(mesh: &Mesh) -> Vec<Option<[f64; 3]>> {
 /// sort), and each bucket (a vertex's few larger neighbours) is sorted by
 /// the other vertex, then equal edges are summed.
 pub fn cotan_weights(mesh: &Mesh) -> Vec<((usize, usize), f64)> {
+    count(Counted::EdgeWeights);
     let n = mesh.n_vertices();
     let cots = corner_cotangents(mesh);
     let half_edges = || {
@@ -114,12 +116,17 @@ pub fn cotan_weights(mesh: &Mesh) -> Vec<((usize, usize), f64)> {
 /// are; the diagonal sums the weights in edge order. A vertex without an
 /// edge (isolated, or only in skipped faces) has an empty column.
 pub fn cotan_laplacian(mesh: &Mesh) -> SparseMatrix {
-    let n = mesh.n_vertices();
-    let w = cotan_weights(mesh);
+    cotan_laplacian_from(mesh.n_vertices(), &cotan_weights(mesh))
+}
+
+/// The Laplacian of [`cotan_laplacian`] from the sorted edge weights of
+/// [`cotan_weights`] on `n` vertices.
+pub(super) fn cotan_laplacian_from(n: usize, w: &[((usize, usize), f64)]) -> SparseMatrix {
+    count(Counted::Laplacian);
     // below[c]: neighbours i < c (edges (i, c)); above[c]: neighbours > c.
     let mut below = vec![0usize; n];
     let mut above = vec![0usize; n];
-    for &((i, j), _) in &w {
+    for &((i, j), _) in w {
         above[i] += 1;
         below[j] += 1;
     }
@@ -138,7 +145,7 @@ pub fn cotan_laplacian(mesh: &Mesh) -> SparseMatrix {
         .map(|c| offsets[c] + below[c] + usize::from(has_diag(c)))
         .collect();
     let mut diag = vec![0.0f64; n];
-    for &((i, j), x) in &w {
+    for &((i, j), x) in w {
         // Column j, row i (i < j): a lower entry; column i, row j: upper.
         rows[lower[j]] = i;
         vals[lower[j]] = -x;
@@ -161,6 +168,7 @@ pub fn cotan_laplacian(mesh: &Mesh) -> SparseMatrix {
 /// Lumped (diagonal) mass matrix as its diagonal. Sums to the total area of
 /// the non-degenerate faces.
 pub fn mass_matrix(mesh: &Mesh, kind: MassKind) -> Vec<f64> {
+    count(Counted::Mass);
     let v = mesh.vertices();
     let mut m = vec![0.0; mesh.n_vertices()];
     for (f, cot) in mesh.faces().iter().zip(corner_cotangents(mesh)) {

@@ -4,7 +4,8 @@
 //! stiffness matrix `L` (off-diagonal `-½(cot α + cot β)`, zero row sums), so
 //! the Laplace–Beltrami eigenproblem is `L φ = λ M φ` with `λ ≥ 0`.
 //!
-//! Contents: Laplacian and mass ([`laplacian`]), edges and areas
+//! Contents: Laplacian and mass ([`laplacian`]; computed once per mesh
+//! through [`Operators`]), edges and areas
 //! ([`topology`]), adjacency and boundaries ([`adjacency`]), normals
 //! ([`normals`]), polar decomposition and rotation log/exp ([`rotation`]),
 //! per-vertex deformation gradients and BDT rotation/scale features
@@ -19,6 +20,7 @@ pub mod heat;
 pub mod laplacian;
 pub mod normalize;
 pub mod normals;
+pub mod operators;
 pub mod rotation;
 pub mod sampling;
 pub mod topology;
@@ -34,6 +36,7 @@ pub use normalize::{
     normalize_to_unit_sphere, unit_sphere_transform, NormalizeReference, Similarity,
 };
 pub use normals::{face_normals, vertex_area_normals, vertex_normals};
+pub use operators::{computations, Computations, Operators};
 pub use rotation::{polar_decomposition, rotation_exp, rotation_log, scale_shear_vector, Polar};
 pub use sampling::{
     farthest_point_sampling, farthest_point_sampling_from, farthest_point_sampling_in, FpsMetric,

@@ -19,6 +19,9 @@
 //! meshes (default: *every* mesh fits in the unit ball) or only the first
 //! mesh (the others keep their size relative to it and may stick out).
 
+use std::sync::Mutex;
+
+use crate::mesh::derived::Key;
 use crate::mesh::{check_extent, stable_norm, Mesh};
 use crate::{Error, Point, Result, Vec3};
 
@@ -30,6 +33,15 @@ pub enum NormalizeReference {
     Union,
     /// The vertices of the first mesh only.
     First,
+}
+
+/// How many similarity copies of a mesh [`Similarity::apply_mesh`] keeps.
+pub const SIMILAR_COPIES: usize = 1;
+
+/// The similarity copies of a mesh, by the bits of (center, scale).
+struct SimilarCopies;
+impl Key for SimilarCopies {
+    type Value = Mutex<Vec<([u64; 4], Mesh)>>;
 }
 
 /// The similarity `x ↦ (x − center) · scale` (uniform scale, no rotation).
@@ -58,8 +70,31 @@ impl Similarity {
     }
 
     /// Applies the transform to every vertex of a mesh.
+    ///
+    /// The copy is kept with `mesh` (its last copy: [`SIMILAR_COPIES`]):
+    /// normalising the same mesh by the same similarity again returns a
+    /// clone of the same copy, which shares the operators computed on it
+    /// ([`super::Operators`]).
     pub fn apply_mesh(&self, mesh: &Mesh) -> Result<Mesh> {
-        mesh.map_vertices(|p| self.apply(p))
+        let key = [
+            self.center.x.to_bits(),
+            self.center.y.to_bits(),
+            self.center.z.to_bits(),
+            self.scale.to_bits(),
+        ];
+        let copies = mesh
+            .geometry_values()
+            .get::<SimilarCopies>(Default::default);
+        let mut copies = copies.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, m)) = copies.iter().find(|(k, _)| *k == key) {
+            return Ok(m.clone());
+        }
+        let m = mesh.map_vertices(|p| self.apply(p))?;
+        if copies.len() == SIMILAR_COPIES {
+            copies.remove(0);
+        }
+        copies.push((key, m.clone()));
+        Ok(m)
     }
 
     /// Undoes the transform on every vertex of a mesh.

@@ -8,7 +8,8 @@ use nalgebra::DMatrix;
 
 use super::solver::ConstraintRows;
 use crate::mesh::Mesh;
-use crate::ops::{dijkstra_distances, mass_matrix, MassKind};
+use crate::ops::Operators;
+use crate::ops::{dijkstra_distances, MassKind};
 use crate::{Error, Point, Result};
 
 /// Rows selecting single vertices: `H = e_i` per index.
@@ -47,8 +48,7 @@ pub fn circle_radii(n_circles: usize, max_radius: f64) -> Vec<f64> {
 /// of `mesh` within Dijkstra (edge-path) distance `radius` of `center`
 /// (weights sum to one; the center alone if no other vertex is inside).
 pub fn geodesic_circle_rows(mesh: &Mesh, center: usize, radii: &[f64]) -> Result<ConstraintRows> {
-    let mass = mass_matrix(mesh, MassKind::Voronoi);
-    circle_rows_with(mesh, &mass, center, radii)
+    circle_rows_with(mesh, &mesh.mass(MassKind::Voronoi), center, radii)
 }
 
 fn circle_rows_with(
@@ -101,8 +101,8 @@ pub fn feature_circle_constraints(
     features: &[(usize, usize)],
     radii: &[f64],
 ) -> Result<(ConstraintRows, DMatrix<f64>)> {
-    let tm = mass_matrix(template, MassKind::Voronoi);
-    let gm = mass_matrix(target, MassKind::Voronoi);
+    let tm = template.mass(MassKind::Voronoi);
+    let gm = target.mass(MassKind::Voronoi);
     let mut rows = Vec::new();
     let mut trows = Vec::new();
     for &(a, b) in features {

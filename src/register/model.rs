@@ -28,7 +28,7 @@ use std::sync::Arc;
 use nalgebra::DMatrix;
 
 use crate::mesh::Mesh;
-use crate::ops::{cotan_weights, mass_matrix, MassKind};
+use crate::ops::Operators;
 use crate::skin::dictionary::Dictionary;
 use crate::solve::dense::tr_mul;
 use crate::{Error, Mat3, Point, Result};
@@ -66,10 +66,11 @@ impl ArapGraph {
             }
         }
         let n = reference.n_vertices();
-        let edges: Vec<(usize, usize, f64)> = cotan_weights(reference)
-            .into_iter()
-            .filter(|&(_, w)| w > 0.0)
-            .map(|((i, j), w)| (i, j, w))
+        let edges: Vec<(usize, usize, f64)> = reference
+            .edge_weights()
+            .iter()
+            .filter(|&&(_, w)| w > 0.0)
+            .map(|&((i, j), w)| (i, j, w))
             .collect();
         let mut count = vec![0usize; n + 1];
         for &(i, j, _) in &edges {
@@ -98,7 +99,7 @@ impl ArapGraph {
             ring,
             ring_w,
             rest_terms: Vec::new(),
-            area: mass_matrix(reference, MassKind::Voronoi).iter().sum(),
+            area: reference.mass_area(),
         };
         g.rest_terms = (0..g.examples.len())
             .map(|l| {

@@ -116,7 +116,8 @@ use nalgebra::DMatrix;
 use rayon::prelude::*;
 
 use crate::mesh::Mesh;
-use crate::ops::{cotan_laplacian, mass_matrix, MassKind};
+use crate::ops::MassKind;
+use crate::ops::Operators;
 
 use crate::solve::qp::{
     project_to_simplex, simplex_rows_qp, AdmmOptions, BoxQp, BoxQpSolution, RowAdmm, RowConstraint,
@@ -314,8 +315,8 @@ impl Biharmonic {
     /// and hence the biharmonic system would be singular there.
     pub fn new(mesh: &Mesh) -> Result<Self> {
         let n = mesh.n_vertices();
-        let l = cotan_laplacian(mesh);
-        let mass = mass_matrix(mesh, MassKind::Voronoi);
+        let l = mesh.laplacian();
+        let mass = mesh.mass(MassKind::Voronoi);
         if let Some(i) = mass.iter().position(|&m| !(m > 0.0 && m.is_finite())) {
             return Err(Error::invalid(format!(
                 "biharmonic weights: vertex {i} has zero Voronoi area (isolated vertex or only in \
@@ -366,7 +367,7 @@ impl Biharmonic {
         }
         Ok(Biharmonic {
             q,
-            mass,
+            mass: mass.to_vec(),
             component,
             n_components,
         })

@@ -55,7 +55,8 @@
 use nalgebra::DMatrix;
 
 use crate::mesh::Mesh;
-use crate::ops::{cotan_laplacian, mass_matrix, MassKind};
+use crate::ops::MassKind;
+use crate::ops::Operators;
 use crate::skin::bbw::{BbwOptions, Biharmonic, WeightMode};
 use crate::skin::lbo::LboBasis;
 use crate::skin::rigging::{example_skinning, Rig, RigOptions};
@@ -107,15 +108,15 @@ pub fn laplacian_energy_matrix(mesh: &Mesh, weights: &DMatrix<f64>) -> Result<DM
             weights.nrows()
         )));
     }
-    let mass = mass_matrix(mesh, MassKind::Voronoi);
+    let mass = mesh.mass(MassKind::Voronoi);
     if let Some(i) = mass.iter().position(|&x| !(x > 0.0 && x.is_finite())) {
         return Err(Error::invalid(format!(
             "vertex {i} has no mass; the Laplacian energy needs M⁻¹"
         )));
     }
     let area: f64 = mass.iter().sum();
-    let l = cotan_laplacian(mesh);
-    let mut lw = &l * weights;
+    let l = mesh.laplacian();
+    let mut lw = &*l * weights;
     for (i, mut row) in lw.row_iter_mut().enumerate() {
         row /= mass[i].sqrt();
     }
@@ -140,7 +141,7 @@ impl SkinningWeights {
             return Err(Error::invalid("skinning weights have a non-finite entry"));
         }
         let smoothness = laplacian_energy_matrix(mesh, &weights)?;
-        let area = mass_matrix(mesh, MassKind::Voronoi).iter().sum();
+        let area = mesh.mass_area();
         Ok(SkinningWeights {
             weights,
             smoothness,

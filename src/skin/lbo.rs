@@ -26,7 +26,8 @@
 use nalgebra::DMatrix;
 
 use crate::mesh::Mesh;
-use crate::ops::{cotan_laplacian, mass_matrix, MassKind};
+use crate::ops::MassKind;
+use crate::ops::Operators;
 use crate::solve::{generalized_eigen, EigenOptions};
 use crate::{Error, Result};
 
@@ -57,8 +58,8 @@ pub fn lbo_basis(mesh: &Mesh, m: usize, opts: &EigenOptions) -> Result<LboBasis>
             "asked for {m} Laplace–Beltrami eigenfunctions of a mesh with {n} vertices"
         )));
     }
-    let l = cotan_laplacian(mesh);
-    let mass = mass_matrix(mesh, MassKind::Voronoi);
+    let l = mesh.laplacian();
+    let mass = mesh.mass(MassKind::Voronoi);
     if let Some(i) = mass.iter().position(|&x| !(x > 0.0 && x.is_finite())) {
         return Err(Error::invalid(format!(
             "vertex {i} has mass {} (isolated or only in degenerate faces); \
@@ -73,7 +74,7 @@ pub fn lbo_basis(mesh: &Mesh, m: usize, opts: &EigenOptions) -> Result<LboBasis>
     Ok(LboBasis {
         weights,
         values: eig.values.iter().map(|l| l * area).collect(),
-        mass,
+        mass: mass.to_vec(),
         area,
         orthonormality_error: eig.orthonormality_error,
         max_residual: eig.max_residual,

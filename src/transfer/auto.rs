@@ -70,9 +70,8 @@ use crate::eval::procrustes;
 use crate::mesh::Mesh;
 use crate::ops::closest_point_on_triangle;
 use crate::ops::geodesic::EdgeGraph;
-use crate::ops::{
-    farthest_point_sampling, mass_matrix, vertex_faces, vertex_normals, FpsMetric, MassKind,
-};
+use crate::ops::Operators;
+use crate::ops::{farthest_point_sampling, vertex_normals, FpsMetric, MassKind};
 use crate::register::model::FbtModel;
 use crate::register::nicp::minimal_step;
 use crate::register::setup::{build, ClusterSource, DictionaryExamples, FbtConfig, StageConfig};
@@ -299,7 +298,7 @@ impl AutoCorrespondence {
 
 /// Voronoi-area-weighted centroid, covariance and total area.
 fn moments(mesh: &Mesh) -> Result<(Point, Mat3, f64)> {
-    let m = mass_matrix(mesh, MassKind::Voronoi);
+    let m = mesh.mass(MassKind::Voronoi);
     let area: f64 = m.iter().sum();
     if !(area.is_finite() && area > 0.0) {
         return Err(Error::invalid(format!(
@@ -310,11 +309,11 @@ fn moments(mesh: &Mesh) -> Result<(Point, Mat3, f64)> {
     let v = mesh.vertices();
     let c = v
         .iter()
-        .zip(&m)
+        .zip(m.iter())
         .fold(Vec3::zeros(), |s, (p, w)| s + p.coords * *w)
         / area;
     let mut cov = Mat3::zeros();
-    for (p, w) in v.iter().zip(&m) {
+    for (p, w) in v.iter().zip(m.iter()) {
         let d = p.coords - c;
         cov += d * d.transpose() * (*w / area);
     }
@@ -531,7 +530,7 @@ pub fn project_to_vertices(
         )));
     }
     let tree = PointIndex::new(mesh.vertices())?;
-    let vf = vertex_faces(mesh);
+    let vf = mesh.incident_faces();
     let (v, f) = (mesh.vertices(), mesh.faces());
     let mut used: Vec<usize> = Vec::new();
     let mut surface = Vec::new();

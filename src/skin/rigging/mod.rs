@@ -124,7 +124,8 @@ use self::clusters::Clusters;
 use self::problem::{blended_procrustes, local_nonrigidity, Problem, Rigid};
 use self::ssdr::Soft;
 use crate::mesh::Mesh;
-use crate::ops::{total_area, vertex_neighbours};
+use crate::ops::total_area;
+use crate::ops::Operators;
 use crate::{Error, Result};
 
 pub use self::simplex::simplex_least_squares;
@@ -316,7 +317,7 @@ pub fn example_skinning(reference: &Mesh, examples: &[Mesh], opts: &RigOptions) 
         align.push(g);
     }
     let q = examples.len();
-    let nbr = vertex_neighbours(reference);
+    let nbr = reference.neighbours();
     let rho = local_nonrigidity(&p, &v, &nbr)?;
     let prob = Problem {
         p,

@@ -60,7 +60,7 @@ pub(super) struct Problem {
     pub(super) p: Vec<V3>,
     /// Aligned examples, `v[e][i]`.
     pub(super) v: Vec<Vec<V3>>,
-    pub(super) nbr: Csr,
+    pub(super) nbr: std::sync::Arc<Csr>,
     /// Local non-rigidity of each vertex: mean residual of the best rigid
     /// fit of its closed 1-ring, summed over examples.
     pub(super) rho: Vec<f64>,
