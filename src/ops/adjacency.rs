@@ -5,7 +5,7 @@
 //! vertex (e.g. `[a, a, b]`) contributes no self-loop `(a, a)`; its other edge
 //! is kept.
 
-use super::operators::{count, Counted};
+use super::counts::{count, Counted};
 use crate::mesh::Mesh;
 
 /// A list of sorted index lists in compressed-row (CSR-like) form: row `i`

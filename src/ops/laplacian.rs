@@ -10,7 +10,7 @@
 //! a vanishing element and keeps needles from injecting cotangents of 1e10 and
 //! more. Such faces are reported by the defect report.
 
-use super::operators::{count, Counted};
+use super::counts::{count, Counted};
 use crate::mesh::Mesh;
 use crate::solve::SparseMatrix;
 

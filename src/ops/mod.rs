@@ -14,6 +14,7 @@
 //! normalisation ([`normalize`]).
 
 pub mod adjacency;
+pub mod counts;
 pub mod geodesic;
 pub mod gradient;
 pub mod heat;

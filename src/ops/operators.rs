@@ -6,10 +6,12 @@
 //! 1-ring and the vertex → face lists (these two are shared with every
 //! deformed copy, `with_vertices`, which keeps the faces). The free
 //! functions ([`cotan_laplacian`], [`mass_matrix`], ...) compute afresh
-//! each time; [`computations`] counts how often each one ran.
+//! each time; [`computations`] counts how often each one ran
+//! ([`super::counts`]).
 
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
+
+pub use super::counts::{computations, Computations};
 
 use super::adjacency::{vertex_faces, vertex_neighbours, Csr};
 use super::laplacian::{cotan_laplacian_from, cotan_weights, mass_matrix, MassKind};
@@ -57,50 +59,6 @@ impl Key for NeighboursKey {
 struct IncidentFacesKey;
 impl Key for IncidentFacesKey {
     type Value = Csr;
-}
-
-/// How many times each operator was computed in this process.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Computations {
-    pub laplacian: usize,
-    pub mass: usize,
-    pub edge_weights: usize,
-    pub neighbours: usize,
-    pub incident_faces: usize,
-}
-
-static COUNTS: [AtomicUsize; 5] = [
-    AtomicUsize::new(0),
-    AtomicUsize::new(0),
-    AtomicUsize::new(0),
-    AtomicUsize::new(0),
-    AtomicUsize::new(0),
-];
-
-pub(super) enum Counted {
-    Laplacian = 0,
-    Mass,
-    EdgeWeights,
-    Neighbours,
-    IncidentFaces,
-}
-
-/// Counts one computation of `op` (called by the computing functions).
-pub(super) fn count(op: Counted) {
-    COUNTS[op as usize].fetch_add(1, Ordering::Relaxed);
-}
-
-/// How many times each operator was computed in this process so far (by
-/// [`Operators`] or the free functions): the measure of "once per mesh".
-pub fn computations() -> Computations {
-    let c = |i: usize| COUNTS[i].load(Ordering::Relaxed);
-    Computations {
-        laplacian: c(0),
-        mass: c(1),
-        edge_weights: c(2),
-        neighbours: c(3),
-        incident_faces: c(4),
-    }
 }
 
 impl Operators for Mesh {
