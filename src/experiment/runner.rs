@@ -413,7 +413,6 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions, bars: &Bars) -> Result<RunSummar
         serve_case_meshes(&col, &mine, strict)?;
     }
     let (stored, cache) = stored_config(l, &col, &dir)?;
-    let hash = stored.hash.clone();
 
     if opts.force && opts.shard.is_some() {
         // Moving another key's results aside needs the folder alone.
@@ -441,36 +440,7 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions, bars: &Bars) -> Result<RunSummar
     report_bound(&dir, bound);
     cache.save(&dir)?;
 
-    let mut retried = 0;
-    if opts.retry_failed {
-        for c in &mine {
-            for m in &l.methods {
-                if store.retire_failed(&c.id, &m.name)? {
-                    retried += 1;
-                }
-            }
-        }
-        if retried > 0 && opts.progress {
-            eprintln!(
-                "{name}: {retried} failed result(s) moved to {} to be computed again",
-                dir.join("failed").display()
-            );
-        }
-    }
-    let mut work: Vec<(&Case, &NamedMethod)> = Vec::new();
-    let mut reused = 0;
-    for c in &mine {
-        for m in &l.methods {
-            if store.has(&c.id, &m.name) {
-                reused += 1;
-            } else {
-                work.push((c, m));
-            }
-        }
-    }
-    if let Some(k) = opts.max_new {
-        work.truncate(k);
-    }
+    let (work, reused) = plan_work(l, opts, &store, &dir, &mine)?;
     let mut pending: Vec<&Case> = work.iter().map(|(c, _)| *c).collect();
     pending.dedup_by_key(|c| c.index);
     // Values the data make impossible: one error before any case runs (a
@@ -506,64 +476,14 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions, bars: &Bars) -> Result<RunSummar
     let done = AtomicUsize::new(0);
     let dropped = AtomicUsize::new(0);
     let first_error: Mutex<Option<Error>> = Mutex::new(None);
-    let metrics = &l.config.metrics;
     let row_bar = progress.bar();
     work.par_iter().with_max_len(1).for_each(|(case, m)| {
         if first_error.lock().map(|e| e.is_some()).unwrap_or(true) {
             return;
         }
         let t = Instant::now();
-        let mut r = CaseResult {
-            case: case.index,
-            case_id: case.id.clone(),
-            method: m.name.clone(),
-            ..Default::default()
-        };
-        r.set("case", case.index.to_string());
-        r.set("case_id", case.id.clone());
-        r.set("source", case.source.clone());
-        r.set("target", case.target.clone());
-        r.set("reference_pose", case.reference.clone());
-        r.set("poses", case.poses.join(";"));
-        r.set("method", m.name.clone());
-        r.set("group", m.group.clone());
-        r.set("kind", m.method.kind_name());
-        let mdir = store.mesh_dir(&case.id);
-        // Renders show one method per group: save only its meshes.
-        let first_of_group = l
-            .methods
-            .iter()
-            .find(|x| x.group == m.group)
-            .is_some_and(|x| x.name == m.name);
-        let render = (case.index < render_cases && first_of_group).then(|| RenderOut {
-            dir: &mdir,
-            poses: render_poses,
-            format: mesh_format,
-        });
-        let status = match with_row_bar(row_bar, || {
-            run_method(&col, case, m, metrics, render.as_ref(), &mut r)
-        }) {
-            Ok(()) => "ok".to_string(),
-            Err(e) => {
-                // Keep the identification cells, drop partial numbers.
-                let keep = [
-                    "case",
-                    "case_id",
-                    "source",
-                    "target",
-                    "reference_pose",
-                    "poses",
-                    "method",
-                    "group",
-                    "kind",
-                ];
-                r.cells.retain(|k, _| keep.contains(&k.as_str()));
-                r.curves.clear();
-                r.set("seconds_total", secs(t.elapsed().as_secs_f64()));
-                format!("failed: {e}").replace(['\n', '\r'], " ")
-            }
-        };
-        r.set("status", status.clone());
+        let r = with_row_bar(row_bar, || row(l, &col, &store, case, m));
+        let status = r.cells.get("status").cloned().unwrap_or_default();
         match store.put(&r) {
             Ok(true) => {}
             // Stored meanwhile by a run of an overlapping shard: its
@@ -616,6 +536,107 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions, bars: &Bars) -> Result<RunSummar
         .count();
     let complete = have_mine >= expected;
 
+    record_run(
+        l,
+        opts,
+        &dir,
+        &col,
+        &cases,
+        &stored,
+        &Finished {
+            results: &results,
+            order: &order,
+            failed,
+            computed,
+            reused,
+            started,
+            wall_seconds: t0.elapsed().as_secs_f64(),
+        },
+    )?;
+    if opts.plots && complete {
+        for w in super::plots::make_plots(&dir)? {
+            eprintln!("warning: {w}");
+        }
+    }
+    let summary = RunSummary {
+        name: name.clone(),
+        dir,
+        computed,
+        reused,
+        failed,
+        wall_seconds: t0.elapsed().as_secs_f64(),
+        complete,
+    };
+    Ok(summary)
+}
+
+/// The rows this invocation computes (every (case, method) of `mine`
+/// without a stored result, failed ones retired first with
+/// `--retry-failed`, at most `--max-new`) and the count of stored ones.
+fn plan_work<'c>(
+    l: &'c LoadedConfig,
+    opts: &RunOptions,
+    store: &Store,
+    dir: &Path,
+    mine: &[&'c Case],
+) -> Result<(Vec<(&'c Case, &'c NamedMethod)>, usize)> {
+    let name = &l.config.name;
+    let mut retried = 0;
+    if opts.retry_failed {
+        for c in mine {
+            for m in &l.methods {
+                if store.retire_failed(&c.id, &m.name)? {
+                    retried += 1;
+                }
+            }
+        }
+        if retried > 0 && opts.progress {
+            eprintln!(
+                "{name}: {retried} failed result(s) moved to {} to be computed again",
+                dir.join("failed").display()
+            );
+        }
+    }
+    let mut work: Vec<(&Case, &NamedMethod)> = Vec::new();
+    let mut reused = 0;
+    for c in mine {
+        for m in &l.methods {
+            if store.has(&c.id, &m.name) {
+                reused += 1;
+            } else {
+                work.push((c, m));
+            }
+        }
+    }
+    if let Some(k) = opts.max_new {
+        work.truncate(k);
+    }
+    Ok((work, reused))
+}
+
+/// What one invocation of a run did (for its manifest).
+struct Finished<'a> {
+    results: &'a [CaseResult],
+    order: &'a [String],
+    failed: usize,
+    computed: usize,
+    reused: usize,
+    started: u64,
+    wall_seconds: f64,
+}
+
+/// Writes the folder's manifest: the config, the data, the cases, what is
+/// stored, and this invocation appended to the earlier ones.
+fn record_run(
+    l: &LoadedConfig,
+    opts: &RunOptions,
+    dir: &Path,
+    col: &Collection,
+    cases: &[Case],
+    stored: &StoredConfig,
+    f: &Finished,
+) -> Result<()> {
+    let name = &l.config.name;
     let git = super::store::git_revision(&std::env::current_dir().unwrap_or_default());
     let prev: Option<Manifest> = std::fs::read_to_string(dir.join("manifest.json"))
         .ok()
@@ -625,14 +646,14 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions, bars: &Bars) -> Result<RunSummar
         .map(|p| p.invocations.clone())
         .unwrap_or_default();
     invocations.push(Invocation {
-        started_unix: started,
-        wall_seconds: t0.elapsed().as_secs_f64(),
+        started_unix: f.started,
+        wall_seconds: f.wall_seconds,
         threads: opts.threads,
         shard: opts.shard,
         crate_version: env!("CARGO_PKG_VERSION").to_string(),
         git_revision: git.clone(),
-        computed,
-        reused,
+        computed: f.computed,
+        reused: f.reused,
         repairs: col
             .repairs()
             .iter()
@@ -658,7 +679,7 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions, bars: &Bars) -> Result<RunSummar
     let manifest = Manifest {
         name: name.clone(),
         config_file: l.path.display().to_string(),
-        config_hash: hash,
+        config_hash: stored.hash.clone(),
         overrides: l.overrides.clone(),
         sweep: l.sweep.clone(),
         data_root: stored
@@ -673,30 +694,79 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions, bars: &Bars) -> Result<RunSummar
         git_revision: git,
         dataset: col.description.clone(),
         n_cases: cases.len(),
-        cases: cases.clone(),
-        methods: order.clone(),
+        cases: cases.to_vec(),
+        methods: f.order.to_vec(),
         shards,
-        results_stored: results.len(),
-        results_failed: failed,
-        method_seconds: method_seconds(&results, &order),
+        results_stored: f.results.len(),
+        results_failed: f.failed,
+        method_seconds: method_seconds(f.results, f.order),
         invocations,
     };
-    write_manifest(&dir, &manifest)?;
-    if opts.plots && complete {
-        for w in super::plots::make_plots(&dir)? {
-            eprintln!("warning: {w}");
-        }
-    }
-    let summary = RunSummary {
-        name: name.clone(),
-        dir,
-        computed,
-        reused,
-        failed,
-        wall_seconds: t0.elapsed().as_secs_f64(),
-        complete,
+    write_manifest(dir, &manifest)
+}
+
+/// Runs method `m` on `case` and returns its row: the identification
+/// cells, what the method measured, and `status` (`ok`, or `failed: …`
+/// with the method's numbers dropped).
+fn row(
+    l: &LoadedConfig,
+    col: &Collection,
+    store: &Store,
+    case: &Case,
+    m: &NamedMethod,
+) -> CaseResult {
+    let render_cases = l.config.outputs.render_cases();
+    let t = Instant::now();
+    let mut r = CaseResult {
+        case: case.index,
+        case_id: case.id.clone(),
+        method: m.name.clone(),
+        ..Default::default()
     };
-    Ok(summary)
+    r.set("case", case.index.to_string());
+    r.set("case_id", case.id.clone());
+    r.set("source", case.source.clone());
+    r.set("target", case.target.clone());
+    r.set("reference_pose", case.reference.clone());
+    r.set("poses", case.poses.join(";"));
+    r.set("method", m.name.clone());
+    r.set("group", m.group.clone());
+    r.set("kind", m.method.kind_name());
+    let mdir = store.mesh_dir(&case.id);
+    // Renders show one method per group: save only its meshes.
+    let first_of_group = l
+        .methods
+        .iter()
+        .find(|x| x.group == m.group)
+        .is_some_and(|x| x.name == m.name);
+    let render = (case.index < render_cases && first_of_group).then(|| RenderOut {
+        dir: &mdir,
+        poses: l.config.outputs.render_poses(),
+        format: l.config.outputs.mesh_format().format(),
+    });
+    let status = match run_method(col, case, m, &l.config.metrics, render.as_ref(), &mut r) {
+        Ok(()) => "ok".to_string(),
+        Err(e) => {
+            // Keep the identification cells, drop partial numbers.
+            let keep = [
+                "case",
+                "case_id",
+                "source",
+                "target",
+                "reference_pose",
+                "poses",
+                "method",
+                "group",
+                "kind",
+            ];
+            r.cells.retain(|k, _| keep.contains(&k.as_str()));
+            r.curves.clear();
+            r.set("seconds_total", secs(t.elapsed().as_secs_f64()));
+            format!("failed: {e}").replace(['\n', '\r'], " ")
+        }
+    };
+    r.set("status", status);
+    r
 }
 
 /// Says what [`Store::bind`] did, when it did more than check the key.
