@@ -124,8 +124,15 @@ pub fn run_configs(configs: &[PathBuf], opts: &RunOptions) -> Result<Vec<RunSumm
             ));
         }
     }
+    // Under an address-space limit: as many workers as fit (or stop now,
+    // naming the limit) rather than an abort in a worker's first product.
+    let (threads, warning) =
+        crate::solve::address::fit_threads(crate::solve::cap_threads(opts.threads))?;
+    if let Some(w) = warning {
+        eprintln!("warning: {w}");
+    }
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(crate::solve::cap_threads(opts.threads))
+        .num_threads(threads)
         .build()
         .map_err(|e| Error::invalid(format!("thread pool: {e}")))?;
     let bars = Bars::new(opts.progress);

@@ -6,6 +6,7 @@
 //! Matrices are assembled as [`SparseMatrix`] (nalgebra-sparse CSC) everywhere;
 //! conversion to faer's own types happens only inside this module.
 
+pub mod address;
 pub mod cholesky;
 pub mod dense;
 pub mod eigen;

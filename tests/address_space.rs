@@ -1,0 +1,118 @@
+//! Runs under an address-space limit (`ulimit -v`, as batch schedulers set
+//! it). faer's dense kernels reserve a buffer of 2 × L3 per thread on its
+//! first product ([`deformlab::solve::address`]): mostly untouched, so a
+//! run that needs ~33 MB resident aborted (SIGABRT, "memory allocation of
+//! … bytes failed") once a few workers had reserved theirs. Now a run uses
+//! as many workers as fit, saying so, or stops at once naming the limit.
+#![cfg(target_os = "linux")]
+
+mod common;
+
+use std::process::Command;
+
+use common::write;
+use deformlab::solve::address::dense_buffer_per_thread;
+
+const FBT: &str = r#"
+name = "fbt-limit"
+seed = 0
+[dataset.synthetic]
+subjects = 1
+poses = 6
+resolution = 1
+[cases]
+targets = []
+include_self = true
+per_pose = true
+reference_pose = "rest"
+poses = [2, 3, 4]
+[[methods]]
+name = "completion"
+kind = "fbt"
+fbt = { task = "completion", q = 3, nicp_iterations = 2, queries = 50 }
+"#;
+
+const BDT: &str = r#"
+name = "bdt-limit"
+seed = 0
+[dataset.synthetic]
+subjects = 2
+poses = 3
+resolution = 1
+[cases]
+sources = [0]
+targets = [1]
+poses = [1, 2]
+[defaults]
+mode = "fast"
+n_candidates = 40
+[[methods]]
+name = "bdt"
+kind = "bdt"
+[[methods]]
+name = "identity"
+kind = "identity"
+"#;
+
+/// `deformlab run` of both configs with `threads` under `ulimit -v kib`.
+fn run_limited(kib: u64, threads: usize) -> (std::process::Output, tempfile::TempDir) {
+    let t = tempfile::tempdir().unwrap();
+    let f = write(t.path(), "fbt.toml", FBT);
+    let b = write(t.path(), "bdt.toml", BDT);
+    let out = t.path().join("results");
+    let script = format!(
+        "ulimit -v {kib} && exec \"$0\" run \"$1\" \"$2\" --out \"$3\" --threads {threads}"
+    );
+    let o = Command::new("sh")
+        .arg("-c")
+        .arg(script)
+        .arg(env!("CARGO_BIN_EXE_deformlab"))
+        .arg(&f)
+        .arg(&b)
+        .arg(&out)
+        .output()
+        .expect("spawn sh");
+    (o, t)
+}
+
+fn rows(dir: &std::path::Path) -> usize {
+    std::fs::read_to_string(dir.join("cases.csv"))
+        .map(|s| s.lines().count().saturating_sub(1))
+        .unwrap_or(0)
+}
+
+#[test]
+fn runs_fit_their_workers_in_an_address_space_limit() {
+    // The acceptance limit (1.5 GiB) with two workers: both experiments
+    // complete.
+    let (o, t) = run_limited(1_572_864, 2);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "1.5 GiB, 2 threads: {err}");
+    let res = t.path().join("results");
+    assert_eq!(rows(&res.join("fbt-limit")), 3, "{err}");
+    assert_eq!(rows(&res.join("bdt-limit")), 2, "{err}");
+
+    // Room for about two workers but eight asked: before, the third
+    // worker's first dense product aborted the run; now it runs with the
+    // workers that fit and says so.
+    let buffer = dense_buffer_per_thread() >> 10;
+    let kib = 160 * 1024 + buffer + 2 * (buffer + 16 * 1024) + 8 * 1024;
+    let (o, t) = run_limited(kib, 8);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{kib} KiB, 8 threads: {err}");
+    assert!(
+        err.contains("ulimit -v") && err.contains("of the 8 threads"),
+        "{err}"
+    );
+    let res = t.path().join("results");
+    assert_eq!(rows(&res.join("bdt-limit")), 2, "{err}");
+
+    // No room for a worker: a clear error at once, naming the limit.
+    let (o, _t) = run_limited(96 * 1024, 2);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("address-space limit (ulimit -v) of 96 MiB") && !err.contains("allocation"),
+        "{err}"
+    );
+}
