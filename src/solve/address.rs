@@ -117,7 +117,10 @@ pub fn address_space_limit() -> Option<u64> {
         };
         // SAFETY: getrlimit writes the struct it is given; nothing else.
         let ok = unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut r) } == 0;
-        (ok && r.rlim_cur != libc::RLIM_INFINITY).then_some(r.rlim_cur as u64)
+        // rlim_t is u64 on Linux but not on every Unix.
+        #[allow(clippy::unnecessary_cast)]
+        let cur = r.rlim_cur as u64;
+        (ok && r.rlim_cur != libc::RLIM_INFINITY).then_some(cur)
     }
     #[cfg(not(unix))]
     {
