@@ -10,55 +10,18 @@ mod common;
 
 use std::process::Command;
 
-use common::write;
+use common::{tiny_bdt, tiny_fbt_completion, write};
 use deformlab::solve::address::dense_buffer_per_thread;
-
-const FBT: &str = r#"
-name = "fbt-limit"
-seed = 0
-[dataset.synthetic]
-subjects = 1
-poses = 6
-resolution = 1
-[cases]
-targets = []
-include_self = true
-per_pose = true
-reference_pose = "rest"
-poses = [2, 3, 4]
-[[methods]]
-name = "completion"
-kind = "fbt"
-fbt = { task = "completion", q = 3, nicp_iterations = 2, queries = 50 }
-"#;
-
-const BDT: &str = r#"
-name = "bdt-limit"
-seed = 0
-[dataset.synthetic]
-subjects = 2
-poses = 3
-resolution = 1
-[cases]
-sources = [0]
-targets = [1]
-poses = [1, 2]
-[defaults]
-mode = "fast"
-n_candidates = 40
-[[methods]]
-name = "bdt"
-kind = "bdt"
-[[methods]]
-name = "identity"
-kind = "identity"
-"#;
 
 /// `deformlab run` of both configs with `threads` under `ulimit -v kib`.
 fn run_limited(kib: u64, threads: usize) -> (std::process::Output, tempfile::TempDir) {
     let t = tempfile::tempdir().unwrap();
-    let f = write(t.path(), "fbt.toml", FBT);
-    let b = write(t.path(), "bdt.toml", BDT);
+    let f = write(
+        t.path(),
+        "fbt.toml",
+        tiny_fbt_completion("fbt-limit", 3, "[2, 3, 4]"),
+    );
+    let b = write(t.path(), "bdt.toml", tiny_bdt("bdt-limit", "[1, 2]", true));
     let out = t.path().join("results");
     let script = format!(
         "ulimit -v {kib} && exec \"$0\" run \"$1\" \"$2\" --out \"$3\" --threads {threads}"

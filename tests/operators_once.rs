@@ -8,8 +8,8 @@
 
 mod common;
 
-use common::write;
-use deformlab::experiment::{run_configs, RunOptions};
+use common::{quiet_run, tiny_bdt, tiny_fbt_completion, write};
+use deformlab::experiment::run_configs;
 use deformlab::mesh::primitives::icosphere;
 use deformlab::ops::{
     computations, cotan_laplacian, mass_matrix, vertex_neighbours, Computations, MassKind,
@@ -19,19 +19,7 @@ use deformlab::ops::{
 fn run_one(toml: &str) -> Computations {
     let t = tempfile::tempdir().unwrap();
     let cfg = write(t.path(), "c.toml", toml);
-    let opts = RunOptions {
-        out: t.path().join("results"),
-        threads: 1,
-        shard: None,
-        plots: false,
-        progress: false,
-        max_new: None,
-        wait: true,
-        defects: Default::default(),
-        load: Default::default(),
-        force: false,
-        retry_failed: false,
-    };
+    let opts = quiet_run(t.path().join("results"), 1);
     let before = computations();
     let s = run_configs(std::slice::from_ref(&cfg), &opts).unwrap();
     assert_eq!(s[0].failed, 0);
@@ -44,44 +32,6 @@ fn run_one(toml: &str) -> Computations {
         incident_faces: after.incident_faces - before.incident_faces,
     }
 }
-
-const FBT: &str = r#"
-name = "fbt-once"
-seed = 0
-[dataset.synthetic]
-subjects = 1
-poses = 6
-resolution = 1
-[cases]
-targets = []
-include_self = true
-per_pose = true
-reference_pose = "rest"
-poses = [3]
-[[methods]]
-name = "completion"
-kind = "fbt"
-fbt = { task = "completion", q = 4, nicp_iterations = 2, queries = 50 }
-"#;
-
-const BDT: &str = r#"
-name = "bdt-once"
-seed = 0
-[dataset.synthetic]
-subjects = 2
-poses = 3
-resolution = 1
-[cases]
-sources = [0]
-targets = [1]
-poses = [1]
-[defaults]
-mode = "fast"
-n_candidates = 40
-[[methods]]
-name = "bdt"
-kind = "bdt"
-"#;
 
 #[test]
 fn operators_are_computed_once_per_mesh() {
@@ -123,8 +73,8 @@ fn operators_are_computed_once_per_mesh() {
     // operators were kept with the mesh the same cases computed FBT
     // (laplacian, mass, edge weights, 1-rings) = (2, 7, 3, 30) and BDT
     // (3, 3, 9, 4).
-    let fbt = run_one(FBT);
-    let bdt = run_one(BDT);
+    let fbt = run_one(&tiny_fbt_completion("fbt-once", 4, "[3]"));
+    let bdt = run_one(&tiny_bdt("bdt-once", "[1]", false));
     eprintln!("FBT completion case: {fbt:?}\nBDT transfer case: {bdt:?}");
     let most = |laplacian, mass, edge_weights, neighbours| Computations {
         laplacian,

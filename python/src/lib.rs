@@ -30,8 +30,8 @@ use deformlab::methods::completion::{
 use deformlab::methods::external::{register_callable, unregister_callable, CallInput, CallableFn};
 use deformlab::methods::spec::{Epsilon, MaxKeypoints, NCandidates};
 use deformlab::methods::{
-    transfer_method, FbtRegistrar, KeypointSource, MethodKind, TargetCorrespondence, TargetPoints, TransferCase,
-    TransferMethod,
+    transfer_method, FbtRegistrar, KeypointSource, MethodKind, TargetCorrespondence, TargetPoints,
+    TransferCase, TransferMethod,
 };
 use deformlab::ops::heat::{HeatGeodesics, HeatOptions};
 use deformlab::ops::{cotan_laplacian, farthest_point_sampling, mass_matrix, FpsMetric, MassKind};

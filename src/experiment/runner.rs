@@ -39,6 +39,7 @@ use super::manifest::{read_manifest, write_manifest, DefectNote, Invocation, Man
 use super::record::run_method;
 use super::store::{
     secs, store_key, BindOptions, Bound, CaseResult, MeshOut, RenderOut, Store, StoredConfig,
+    ID_COLUMNS,
 };
 use crate::mesh::io::temp;
 use crate::mesh::repair::DefectPolicy;
@@ -755,18 +756,7 @@ fn row(
         Ok(()) => "ok".to_string(),
         Err(e) => {
             // Keep the identification cells, drop partial numbers.
-            let keep = [
-                "case",
-                "case_id",
-                "source",
-                "target",
-                "reference_pose",
-                "poses",
-                "method",
-                "group",
-                "kind",
-            ];
-            r.cells.retain(|k, _| keep.contains(&k.as_str()));
+            r.cells.retain(|k, _| ID_COLUMNS.contains(&k.as_str()));
             r.curves.clear();
             r.set("seconds_total", secs(t.elapsed().as_secs_f64()));
             format!("failed: {e}").replace(['\n', '\r'], " ")

@@ -238,3 +238,77 @@ fn without_timing(path: &Path, timing_metrics: bool) -> (Vec<Vec<String>>, usize
     }
     (rows, header.len() - keep.len())
 }
+
+/// Options of a library `run_configs` call: `threads` workers into `out`,
+/// plots and progress off, waiting for a busy folder.
+pub fn quiet_run(out: PathBuf, threads: usize) -> deformlab::experiment::RunOptions {
+    deformlab::experiment::RunOptions {
+        out,
+        threads,
+        shard: None,
+        plots: false,
+        progress: false,
+        max_new: None,
+        wait: true,
+        defects: Default::default(),
+        load: Default::default(),
+        force: false,
+        retry_failed: false,
+    }
+}
+
+/// A small FBT completion config on the synthetic set (one class, six
+/// shapes; q examples, targets `poses`, e.g. `"[3]"`).
+pub fn tiny_fbt_completion(name: &str, q: usize, poses: &str) -> String {
+    format!(
+        r#"
+name = "{name}"
+seed = 0
+[dataset.synthetic]
+subjects = 1
+poses = 6
+resolution = 1
+[cases]
+targets = []
+include_self = true
+per_pose = true
+reference_pose = "rest"
+poses = {poses}
+[[methods]]
+name = "completion"
+kind = "fbt"
+fbt = {{ task = "completion", q = {q}, nicp_iterations = 2, queries = 50 }}
+"#
+    )
+}
+
+/// A small BDT transfer config on the synthetic set (subject 0 → 1, the
+/// poses `poses` in one case; fast selection from 40 candidates), with the
+/// `identity` floor when `floor`.
+pub fn tiny_bdt(name: &str, poses: &str, floor: bool) -> String {
+    let identity = if floor {
+        "[[methods]]\nname = \"identity\"\nkind = \"identity\"\n"
+    } else {
+        ""
+    };
+    format!(
+        r#"
+name = "{name}"
+seed = 0
+[dataset.synthetic]
+subjects = 2
+poses = 3
+resolution = 1
+[cases]
+sources = [0]
+targets = [1]
+poses = {poses}
+[defaults]
+mode = "fast"
+n_candidates = 40
+[[methods]]
+name = "bdt"
+kind = "bdt"
+{identity}"#
+    )
+}
