@@ -18,7 +18,7 @@ pub struct GenArgs<'a> {
 }
 
 pub fn run(a: GenArgs<'_>) -> Result<ExitCode> {
-    let _progress = super::progress::on_terminal();
+    let _progress = super::progress::for_command("gen");
     // Never overwrite a finished set silently.
     if a.out.join("faust").exists() && !a.force {
         return Err(Error::invalid(format!(

@@ -273,7 +273,7 @@ pub struct KeypointsArgs {
 }
 
 pub fn run(a: KeypointsArgs) -> Result<ExitCode> {
-    let _progress = super::progress::on_terminal();
+    let _progress = super::progress::for_command("keypoints");
     let t_all = Instant::now();
     if a.force && a.out.is_none() {
         return Err(Error::invalid(

@@ -1,12 +1,14 @@
-//! The terminal sink of the library's progress reports
-//! ([`deformlab::solve::progress`]): one spinner line on stderr with the
-//! current step, its count and the elapsed time; nothing when stderr is not
-//! a terminal (logs stay clean).
+//! The sinks of the library's progress reports
+//! ([`deformlab::solve::progress`]) for the commands: on a terminal, one
+//! spinner line on stderr with the current step, its count and the elapsed
+//! time; in a log (stderr not a terminal), a line at least every 30 s with
+//! the latest step ([`Heartbeat`]), so a long precomputation is never
+//! silent.
 
 use std::io::IsTerminal;
 use std::sync::Arc;
 
-use deformlab::solve::progress::{install, ProgressSink, SinkGuard};
+use deformlab::solve::progress::{install, Heartbeat, ProgressSink, SinkGuard};
 
 struct Spinner(indicatif::ProgressBar);
 
@@ -21,23 +23,31 @@ impl ProgressSink for Spinner {
     }
 }
 
-/// The installed spinner: cleared and uninstalled when dropped.
-pub struct TerminalProgress {
-    bar: indicatif::ProgressBar,
-    _guard: SinkGuard,
+/// The installed sink: cleared and uninstalled when dropped.
+pub enum CommandProgress {
+    Spinner {
+        bar: indicatif::ProgressBar,
+        _guard: SinkGuard,
+    },
+    /// Held for its lines (they stop when it is dropped).
+    Log { _beat: Heartbeat },
 }
 
-impl Drop for TerminalProgress {
+impl Drop for CommandProgress {
     fn drop(&mut self) {
-        self.bar.finish_and_clear();
+        if let CommandProgress::Spinner { bar, .. } = self {
+            bar.finish_and_clear();
+        }
     }
 }
 
-/// Installs the spinner for the rest of the command when stderr is a
-/// terminal; `None` otherwise.
-pub fn on_terminal() -> Option<TerminalProgress> {
+/// Installs the spinner (stderr is a terminal) or the heartbeat (a log)
+/// for `command` until the value is dropped.
+pub fn for_command(command: &str) -> CommandProgress {
     if !std::io::stderr().is_terminal() {
-        return None;
+        return CommandProgress::Log {
+            _beat: Heartbeat::start(command, String::new),
+        };
     }
     let bar = indicatif::ProgressBar::new_spinner();
     if let Ok(style) = indicatif::ProgressStyle::with_template("{spinner} {wide_msg} [{elapsed}]") {
@@ -45,5 +55,5 @@ pub fn on_terminal() -> Option<TerminalProgress> {
     }
     bar.enable_steady_tick(std::time::Duration::from_millis(200));
     let guard = install(Arc::new(Spinner(bar.clone())));
-    Some(TerminalProgress { bar, _guard: guard })
+    CommandProgress::Spinner { bar, _guard: guard }
 }

@@ -324,7 +324,7 @@ fn check_option_dependencies(a: &TransferArgs) -> Result<()> {
 }
 
 pub fn run(a: TransferArgs) -> Result<ExitCode> {
-    let _progress = super::progress::on_terminal();
+    let _progress = super::progress::for_command("transfer");
     let t_all = Instant::now();
     check_option_dependencies(&a)?;
     // The method first: a bad option is refused before anything is read.

@@ -128,7 +128,7 @@ pub fn run(a: WeightsArgs) -> Result<ExitCode> {
         coupled_local_hops: a.coupled_local_hops.unwrap_or(d.coupled_local_hops),
         ..d
     };
-    let progress = super::progress::on_terminal();
+    let progress = super::progress::for_command("weights");
     let (t0, c0) = (Instant::now(), cpu_seconds());
     let bih = Biharmonic::new(&mesh)?;
     let (t1, c1) = (Instant::now(), cpu_seconds());

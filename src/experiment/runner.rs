@@ -269,8 +269,29 @@ enum Progress {
         name: String,
         total: usize,
         start: Instant,
+        /// Rows done (read by the heartbeat's lines).
+        done: std::sync::Arc<AtomicUsize>,
+        /// A line at least every 30 s between rows (long rows, long steps).
+        beat: crate::solve::progress::Heartbeat,
     },
     Quiet,
+}
+
+/// The time left after `done` of `total` rows in `elapsed` seconds, at the
+/// mean pace of the rows so far: `?` before the first row, then seconds,
+/// minutes or hours.
+fn rows_eta(elapsed: f64, done: usize, total: usize) -> String {
+    if done == 0 || !elapsed.is_finite() || elapsed < 0.0 {
+        return "?".to_string();
+    }
+    let left = total.saturating_sub(done) as f64 * elapsed / done as f64;
+    if left < 120.0 {
+        format!("{left:.0} s")
+    } else if left < 7200.0 {
+        format!("{:.0} min", left / 60.0)
+    } else {
+        format!("{:.1} h", left / 3600.0)
+    }
 }
 
 /// Long steps' progress shown in the message of the bar of the row the
@@ -300,17 +321,38 @@ impl Progress {
         if let Some(multi) = &bars.multi {
             let bar = multi.add(indicatif::ProgressBar::new(total as u64));
             if let Ok(style) = indicatif::ProgressStyle::with_template(
-                "{prefix} [{bar:30}] {pos}/{len} {wide_msg} elapsed {elapsed} ETA {eta}",
+                "{prefix} [{bar:30}] {pos}/{len} {wide_msg} elapsed {elapsed} ETA {rows_eta}",
             ) {
+                // The ETA from the rows done so far (indicatif's own
+                // estimate extrapolated the rate of a bar that had not
+                // moved: 584942417355y on a long first row).
+                let style = style.with_key(
+                    "rows_eta",
+                    |s: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                        let eta = rows_eta(
+                            s.elapsed().as_secs_f64(),
+                            s.pos() as usize,
+                            s.len().unwrap_or(0) as usize,
+                        );
+                        let _ = w.write_str(&eta);
+                    },
+                );
                 bar.set_style(style.progress_chars("=> "));
             }
             bar.set_prefix(name.to_string());
             Progress::Bar { bar }
         } else {
+            let done = std::sync::Arc::new(AtomicUsize::new(0));
+            let d = done.clone();
+            let beat = crate::solve::progress::Heartbeat::start(name, move || {
+                format!("{} of {total} rows done", d.load(Ordering::Relaxed))
+            });
             Progress::Log {
                 name: name.to_string(),
                 total,
                 start: Instant::now(),
+                done,
+                beat,
             }
         }
     }
@@ -328,14 +370,18 @@ impl Progress {
                 b.set_message(line.to_string());
                 b.set_position(done as u64);
             }
-            Progress::Log { name, total, start } => {
+            Progress::Log {
+                name,
+                total,
+                start,
+                done: rows,
+                beat,
+            } => {
+                rows.store(done, Ordering::Relaxed);
                 let el = start.elapsed().as_secs_f64();
-                let eta = if done > 0 {
-                    el / done as f64 * (total - done) as f64
-                } else {
-                    0.0
-                };
-                eprintln!("{name} [{done}/{total}] {line} (elapsed {el:.1} s, ETA {eta:.0} s)");
+                let eta = rows_eta(el, done, *total);
+                eprintln!("{name} [{done}/{total}] {line} (elapsed {el:.1} s, ETA {eta})");
+                beat.wrote();
             }
             Progress::Quiet => {}
         }

@@ -67,3 +67,135 @@ pub fn update_with(step: impl FnOnce() -> String, done: usize, total: usize) {
         update(&step(), done, total);
     }
 }
+
+/// Default period of [`Heartbeat`] lines (seconds); the environment
+/// variable `DEFORMLAB_HEARTBEAT_SECONDS` overrides it (tests use 1).
+pub const HEARTBEAT_SECONDS: u64 = 30;
+
+/// The heartbeat period: [`HEARTBEAT_SECONDS`], or a positive whole number
+/// of seconds in `DEFORMLAB_HEARTBEAT_SECONDS`.
+pub fn heartbeat_period() -> std::time::Duration {
+    let s = std::env::var("DEFORMLAB_HEARTBEAT_SECONDS")
+        .ok()
+        .and_then(|v| v.trim().parse::<u64>().ok())
+        .filter(|&s| s > 0)
+        .unwrap_or(HEARTBEAT_SECONDS);
+    std::time::Duration::from_secs(s)
+}
+
+struct Beat {
+    label: String,
+    start: std::time::Instant,
+    period: std::time::Duration,
+    /// The latest step reported, and when a line was last written.
+    state: std::sync::Mutex<(Option<String>, std::time::Instant)>,
+    stop: std::sync::Mutex<bool>,
+    wake: std::sync::Condvar,
+}
+
+impl ProgressSink for Beat {
+    fn update(&self, step: &str, done: usize, total: usize) {
+        let msg = if total > 0 {
+            format!("{step} {done}/{total}")
+        } else {
+            format!("{step} {done}")
+        };
+        if let Ok(mut s) = self.state.lock() {
+            s.0 = Some(msg);
+        }
+    }
+}
+
+/// Progress for logs (stderr not a terminal): while it lives, a line on
+/// stderr at least every [`heartbeat_period`] — `label`, the elapsed time,
+/// what `status` says and the latest step a long computation reported —
+/// unless another line was written meanwhile ([`Heartbeat::wrote`]). It
+/// is installed as the progress sink and uninstalled when dropped.
+pub struct Heartbeat {
+    beat: Arc<Beat>,
+    thread: Option<std::thread::JoinHandle<()>>,
+    _guard: SinkGuard,
+}
+
+impl Heartbeat {
+    /// Starts the heartbeat; `status` is called from its thread at each
+    /// line (e.g. `"3 of 40 rows done"`).
+    pub fn start(label: &str, status: impl Fn() -> String + Send + 'static) -> Heartbeat {
+        let now = std::time::Instant::now();
+        let beat = Arc::new(Beat {
+            label: label.to_string(),
+            start: now,
+            period: heartbeat_period(),
+            state: std::sync::Mutex::new((None, now)),
+            stop: std::sync::Mutex::new(false),
+            wake: std::sync::Condvar::new(),
+        });
+        let guard = install(beat.clone());
+        let b = beat.clone();
+        let thread = std::thread::Builder::new()
+            .name("deformlab-heartbeat".into())
+            .spawn(move || {
+                let mut stopped = b.stop.lock().unwrap_or_else(|e| e.into_inner());
+                loop {
+                    let due = b
+                        .state
+                        .lock()
+                        .map(|s| s.1 + b.period)
+                        .unwrap_or_else(|_| std::time::Instant::now() + b.period);
+                    let wait = due.saturating_duration_since(std::time::Instant::now());
+                    if !wait.is_zero() {
+                        stopped = b
+                            .wake
+                            .wait_timeout(stopped, wait)
+                            .unwrap_or_else(|e| e.into_inner())
+                            .0;
+                    }
+                    if *stopped {
+                        return;
+                    }
+                    let Ok(mut s) = b.state.lock() else { return };
+                    if s.1 + b.period > std::time::Instant::now() {
+                        continue;
+                    }
+                    let parts: Vec<String> = [status(), s.0.clone().unwrap_or_default()]
+                        .into_iter()
+                        .filter(|p| !p.is_empty())
+                        .collect();
+                    eprintln!(
+                        "{}: still working after {:.0} s{}{}",
+                        b.label,
+                        b.start.elapsed().as_secs_f64(),
+                        if parts.is_empty() { "" } else { "; " },
+                        parts.join("; ")
+                    );
+                    s.1 = std::time::Instant::now();
+                }
+            })
+            .ok();
+        Heartbeat {
+            beat,
+            thread,
+            _guard: guard,
+        }
+    }
+
+    /// Another line was written now: the next heartbeat waits a full
+    /// period from here.
+    pub fn wrote(&self) {
+        if let Ok(mut s) = self.beat.state.lock() {
+            s.1 = std::time::Instant::now();
+        }
+    }
+}
+
+impl Drop for Heartbeat {
+    fn drop(&mut self) {
+        if let Ok(mut s) = self.beat.stop.lock() {
+            *s = true;
+        }
+        self.beat.wake.notify_all();
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
