@@ -476,6 +476,22 @@ pub fn read_keypoints_csv(path: &Path) -> Result<Vec<KeypointRow>> {
             _ => None,
         };
         rows.push(KeypointRow { source, target });
+        // The same bound as --max-keypoints: a larger set is refused before
+        // anything is computed (their weights would take hours).
+        if rows.len() as u64 > MaxKeypoints::MAX {
+            return Err(Error::parse(
+                path,
+                format!("line {}", i + 1),
+                format!(
+                    "more than {} key points (the range of --max-keypoints); the file has                      {} key point rows",
+                    MaxKeypoints::MAX,
+                    text.lines()
+                        .filter(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
+                        .count()
+                        - 1
+                ),
+            ));
+        }
     }
     if rows.is_empty() {
         return Err(Error::parse(path, "file", "no key points"));

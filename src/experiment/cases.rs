@@ -98,6 +98,30 @@ fn pick_subjects(
 
 /// The cases of a config over its dataset. Errors (naming the config file
 /// and key) on unknown subjects and when no case can be formed.
+/// Most cases one config may make (after `repeat`; before `random` and
+/// `max_cases` take fewer).
+pub const MAX_CASES: usize = 1_000_000;
+
+/// Most rows (cases × methods) one run of a config may compute, checked
+/// before anything runs ([`check_rows`]).
+pub const MAX_ROWS: usize = 1_000_000;
+
+/// Refuses a config whose cases × methods exceed [`MAX_ROWS`].
+pub fn check_rows(cfg: &LoadedConfig, cases: usize) -> Result<()> {
+    let rows = cases.saturating_mul(cfg.methods.len());
+    if rows > MAX_ROWS {
+        return Err(Error::parse(
+            &cfg.path,
+            "key `cases`",
+            format!(
+                "{cases} cases × {} methods make {rows} results to compute; at most {MAX_ROWS}                  per config (take fewer cases with `random` or `max_cases`, or split the run                  with --shard)",
+                cfg.methods.len()
+            ),
+        ));
+    }
+    Ok(())
+}
+
 pub fn generate_cases(cfg: &LoadedConfig, col: &Collection) -> Result<Vec<Case>> {
     let spec: &CaseSpec = &cfg.config.cases;
     let sources = pick_subjects(col, &spec.sources, "sources", cfg)?
@@ -196,8 +220,20 @@ pub fn generate_cases(cfg: &LoadedConfig, col: &Collection) -> Result<Vec<Case>>
             }
         }
     }
-    // (`repeat` is in its range, checked while reading the config.)
+    // (`repeat` is in its range, checked while reading the config.) The
+    // copies are counted before they are made.
     if let Some(k) = spec.repeat.filter(|&k| k > 1) {
+        let n = cases.len().saturating_mul(k);
+        if n > MAX_CASES {
+            return Err(Error::parse(
+                &cfg.path,
+                "key `cases.repeat`",
+                format!(
+                    "{} cases × repeat = {k} make {n} cases; at most {MAX_CASES} (use                      `random` or `max_cases` to take fewer, or shard the run)",
+                    cases.len()
+                ),
+            ));
+        }
         cases = cases
             .iter()
             .flat_map(|c| {

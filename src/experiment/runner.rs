@@ -453,6 +453,7 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions, bars: &Bars) -> Result<RunSummar
     // is made: a config that fails leaves nothing behind.
     let col = Collection::open(l)?;
     let cases = generate_cases(l, &col)?;
+    super::cases::check_rows(l, cases.len())?;
     let mine: Vec<&Case> = cases
         .iter()
         .filter(|c| opts.shard.is_none_or(|s| s.contains(c.index)))

@@ -490,6 +490,9 @@ fn methods_of(t: &Table) -> Vec<Table> {
         .unwrap_or_default()
 }
 
+/// Most methods a sweep may make (all grids, all swept methods).
+pub const MAX_METHODS: usize = 1000;
+
 fn expand(table: &mut Table, grids: &mut [Vec<Axis>], base: &LoadedConfig) -> Result<LoadedConfig> {
     let path = base.path.clone();
     let methods = methods_of(table);
@@ -588,6 +591,27 @@ fn expand(table: &mut Table, grids: &mut [Vec<Axis>], base: &LoadedConfig) -> Re
                 }
             }
         }
+    }
+    // The variants are counted before they are made.
+    let mut count: usize = 0;
+    for m in &methods {
+        let name = m.get("name").and_then(Value::as_str).unwrap_or_default();
+        for g in grids.iter() {
+            let n = g
+                .iter()
+                .filter(|a| dependents.get(&a.key).is_some_and(|d| d.contains(name)))
+                .fold(1usize, |n, a| n.saturating_mul(a.values.len()));
+            count = count.saturating_add(n);
+        }
+    }
+    if count > MAX_METHODS {
+        return Err(Error::parse(
+            &path,
+            "key `sweep`",
+            format!(
+                "the sweep makes {count} methods (the product of its axes' values, for each                  method it varies); at most {MAX_METHODS}: sweep fewer values or split the                  sweep over several configs"
+            ),
+        ));
     }
     // The variants, method by method, grid by grid.
     let mut expanded: Vec<Value> = Vec::new();
