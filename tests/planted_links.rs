@@ -103,3 +103,105 @@ fn a_fifo_planted_as_the_lock_is_refused_without_blocking() {
         "{err}"
     );
 }
+
+/// A FIFO made at `p` (false when `mkfifo` is missing: the test skips).
+fn mkfifo(p: &Path) -> bool {
+    let made = Command::new("mkfifo").arg(p).status();
+    if !made.is_ok_and(|s| s.success()) {
+        eprintln!("SKIP: mkfifo is not available here");
+        return false;
+    }
+    true
+}
+
+#[test]
+fn fifos_where_the_store_reads_are_refused_without_blocking() {
+    // Before: a FIFO at manifest.json, config.json or a case result made
+    // the run wait forever on its first read.
+    for file in ["manifest.json", "config.json", "cases/s0-t1-r0/id.json"] {
+        let t = tempfile::tempdir().unwrap();
+        let cfg = config(t.path());
+        let out = t.path().join("out");
+        let (ok, err) = run(&cfg, &out);
+        assert!(ok, "{err}");
+        let p = out.join("tiny").join(file);
+        std::fs::remove_file(&p).unwrap();
+        if !mkfifo(&p) {
+            return;
+        }
+        let (ok, err) = run(&cfg, &out);
+        assert!(!ok, "{file}: {err}");
+        assert!(
+            err.contains(file.rsplit('/').next().unwrap()) && err.contains("not a regular file"),
+            "{file}: {err}"
+        );
+    }
+}
+
+#[test]
+fn a_link_planted_as_a_result_is_refused_and_not_read() {
+    let t = tempfile::tempdir().unwrap();
+    let cfg = config(t.path());
+    let out = t.path().join("out");
+    let (ok, err) = run(&cfg, &out);
+    assert!(ok, "{err}");
+    let p = out.join("tiny/cases/s0-t1-r0/id.json");
+    let elsewhere = t.path().join("elsewhere.json");
+    std::fs::rename(&p, &elsewhere).unwrap();
+    std::os::unix::fs::symlink(&elsewhere, &p).unwrap();
+    let (ok, err) = run(&cfg, &out);
+    assert!(
+        !ok && err.contains("id.json") && err.contains("symbolic link"),
+        "{err}"
+    );
+}
+
+#[test]
+fn stray_copies_are_not_counted_and_corrupt_results_are_recomputed() {
+    let t = tempfile::tempdir().unwrap();
+    let cfg = config(t.path());
+    let out = t.path().join("out");
+    let (ok, err) = run(&cfg, &out);
+    assert!(ok, "{err}");
+    let folder = out.join("tiny");
+    let rows = |f: &Path| {
+        std::fs::read_to_string(f.join("cases.csv"))
+            .unwrap()
+            .lines()
+            .count()
+            - 1
+    };
+    let n = rows(&folder);
+    // A copy of a result under another name: not a second row (before:
+    // the summary counted it).
+    let case = folder.join("cases/s0-t1-r0");
+    std::fs::copy(case.join("id.json"), case.join("id (copy).json")).unwrap();
+    let (ok, err) = run(&cfg, &out);
+    assert!(ok, "{err}");
+    assert_eq!(rows(&folder), n, "{err}");
+    assert!(
+        err.contains("id (copy).json") && err.contains("not counted"),
+        "{err}"
+    );
+    // A truncated result: moved aside with a warning and computed again
+    // (before: the whole run stopped on it).
+    let r = case.join("id.json");
+    let text = std::fs::read_to_string(&r).unwrap();
+    std::fs::write(&r, &text[..text.len() / 2]).unwrap();
+    let (ok, err) = run(&cfg, &out);
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("not a result") && err.contains("computed again"),
+        "{err}"
+    );
+    assert_eq!(rows(&folder), n, "{err}");
+    assert!(folder.join("corrupt/s0-t1-r0/id.json").is_file());
+    // Recomputed: the same numbers, timings aside.
+    let strip = |t: &str| -> String {
+        t.split(',')
+            .filter(|c| !c.contains("seconds_"))
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    assert_eq!(strip(&std::fs::read_to_string(&r).unwrap()), strip(&text));
+}

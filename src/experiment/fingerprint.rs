@@ -163,7 +163,7 @@ impl Cache {
     /// The cache of a results folder (empty if absent or unreadable: it
     /// only saves time).
     pub fn load(dir: &Path) -> Cache {
-        std::fs::read_to_string(dir.join(CACHE_FILE))
+        super::files::read_regular(&dir.join(CACHE_FILE))
             .ok()
             .and_then(|s| serde_json::from_str(&s).ok())
             .unwrap_or_default()

@@ -26,7 +26,7 @@
 //! its next user); they are empty but for the last holder's description.
 //! The kernel releases a lock when its process dies, however it dies.
 
-use std::fs::{File, OpenOptions};
+use std::fs::File;
 use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -97,48 +97,10 @@ fn holder(file: &mut File) -> String {
     }
 }
 
-/// Opens (creating) a lock file of a results folder. Never through a
-/// symbolic link (someone who can write into a shared results folder could
-/// plant one to make this run create or truncate a file elsewhere) and
-/// never anything but a regular file (a FIFO would block the run forever):
-/// either is refused naming the file.
+/// Opens (creating) a lock file of a results folder: a regular file,
+/// never through a symbolic link ([`super::files::open_regular`]).
 fn open(path: &Path) -> Result<File> {
-    let refuse = |what: &str| {
-        Error::invalid(format!(
-            "{}: {what}; a results folder's lock files are regular files that deformlab \
-             creates. Remove it and run again",
-            path.display()
-        ))
-    };
-    if let Ok(m) = std::fs::symlink_metadata(path) {
-        if m.file_type().is_symlink() {
-            return Err(refuse("is a symbolic link"));
-        }
-        if !m.is_file() {
-            return Err(refuse("is not a regular file"));
-        }
-    }
-    let mut o = OpenOptions::new();
-    o.read(true).write(true).create(true).truncate(false);
-    #[cfg(unix)]
-    {
-        // Closes the gap between the check above and the open: the open
-        // itself refuses a link planted meanwhile, and does not wait on a
-        // FIFO.
-        use std::os::unix::fs::OpenOptionsExt;
-        o.custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK);
-    }
-    let f = o
-        .open(path)
-        .map_err(|e| match std::fs::symlink_metadata(path) {
-            Ok(m) if m.file_type().is_symlink() => refuse("is a symbolic link"),
-            _ => Error::io(path, e),
-        })?;
-    let m = f.metadata().map_err(|e| Error::io(path, e))?;
-    if !m.is_file() {
-        return Err(refuse("is not a regular file"));
-    }
-    Ok(f)
+    super::files::open_regular(path, true)
 }
 
 fn try_lock(f: &File, mode: Mode) -> std::result::Result<(), TryLockError> {

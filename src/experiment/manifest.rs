@@ -143,6 +143,6 @@ pub fn write_manifest(dir: &Path, m: &Manifest) -> Result<()> {
 /// Reads manifest.json of a results folder.
 pub fn read_manifest(dir: &Path) -> Result<Manifest> {
     let path = dir.join("manifest.json");
-    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+    let text = super::files::read_regular(&path)?;
     serde_json::from_str(&text).map_err(|e| Error::parse(&path, "JSON", e.to_string()))
 }

@@ -16,6 +16,7 @@ pub mod config;
 pub mod dataset;
 pub mod fbt;
 pub mod feasible;
+pub mod files;
 pub mod fingerprint;
 pub mod load;
 pub mod lock;

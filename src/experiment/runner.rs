@@ -537,7 +537,17 @@ fn run_one(l: &LoadedConfig, opts: &RunOptions, bars: &Bars) -> Result<RunSummar
             return;
         }
         let t = Instant::now();
-        let r = with_row_bar(row_bar, || row(l, &col, &store, case, m));
+        let r = match with_row_bar(row_bar, || row(l, &col, &store, case, m)) {
+            Ok(r) => r,
+            // The results folder could not be written (disk full, ...):
+            // not the method's failure. The run stops; a re-run computes it.
+            Err(e) => {
+                if let Ok(mut slot) = first_error.lock() {
+                    slot.get_or_insert(e);
+                }
+                return;
+            }
+        };
         let status = r.cells.get("status").cloned().unwrap_or_default();
         match store.put(&r) {
             Ok(true) => {}
@@ -636,6 +646,9 @@ fn plan_work<'c>(
     mine: &[&'c Case],
 ) -> Result<(Vec<(&'c Case, &'c NamedMethod)>, usize)> {
     let name = &l.config.name;
+    // Reading every stored result moves corrupt ones aside (computed again
+    // below) and refuses links or special files in their place.
+    store.all(&[])?;
     let mut retried = 0;
     if opts.retry_failed {
         for c in mine {
@@ -693,9 +706,13 @@ fn record_run(
 ) -> Result<()> {
     let name = &l.config.name;
     let git = super::store::git_revision(&std::env::current_dir().unwrap_or_default());
-    let prev: Option<Manifest> = std::fs::read_to_string(dir.join("manifest.json"))
-        .ok()
-        .and_then(|s| serde_json::from_str(&s).ok());
+    // The earlier invocations (a manifest that does not parse is replaced;
+    // a link or a special file in its place is refused).
+    let manifest_path = dir.join("manifest.json");
+    let prev: Option<Manifest> = match std::fs::symlink_metadata(&manifest_path) {
+        Err(_) => None,
+        Ok(_) => serde_json::from_str(&super::files::read_regular(&manifest_path)?).ok(),
+    };
     let mut invocations = prev
         .as_ref()
         .map(|p| p.invocations.clone())
@@ -762,14 +779,16 @@ fn record_run(
 
 /// Runs method `m` on `case` and returns its row: the identification
 /// cells, what the method measured, and `status` (`ok`, or `failed: …`
-/// with the method's numbers dropped).
+/// with the method's numbers dropped). An error writing into the results
+/// folder, or a full disk, is the run's error, not the method's (see
+/// [`run_error`]).
 fn row(
     l: &LoadedConfig,
     col: &Collection,
     store: &Store,
     case: &Case,
     m: &NamedMethod,
-) -> CaseResult {
+) -> Result<CaseResult> {
     let render_cases = l.config.outputs.render_cases();
     let t = Instant::now();
     let mut r = CaseResult {
@@ -801,6 +820,7 @@ fn row(
     });
     let status = match run_method(col, case, m, &l.config.metrics, render.as_ref(), &mut r) {
         Ok(()) => "ok".to_string(),
+        Err(e) if run_error(&e, &store.dir) => return Err(e),
         Err(e) => {
             // Keep the identification cells, drop partial numbers.
             r.cells.retain(|k, _| ID_COLUMNS.contains(&k.as_str()));
@@ -810,7 +830,23 @@ fn row(
         }
     };
     r.set("status", status);
-    r
+    Ok(r)
+}
+
+/// Whether `e` is the run's failure rather than the method's: the results
+/// folder (`dir`) could not be written, or a disk is full. Stored as a
+/// failed result it would stay failed on a plain re-run.
+fn run_error(e: &Error, dir: &Path) -> bool {
+    match e {
+        Error::Io { path, source } => {
+            let full = matches!(
+                source.kind(),
+                std::io::ErrorKind::StorageFull | std::io::ErrorKind::QuotaExceeded
+            );
+            full || path.starts_with(dir)
+        }
+        _ => false,
+    }
 }
 
 /// Says what [`Store::bind`] did, when it did more than check the key.

@@ -655,8 +655,32 @@ impl Store {
 
     pub fn read_config(&self) -> Result<StoredConfig> {
         let path = self.config_path();
-        let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+        let text = super::files::read_regular(&path)?;
         serde_json::from_str(&text).map_err(|e| Error::parse(&path, "JSON", e.to_string()))
+    }
+
+    /// Moves a file of `cases/` to `DIR/<aside>/<case>/<file>` (never
+    /// overwriting: `-2`, `-3`, … on a clash) and returns where.
+    fn set_aside(&self, f: &Path, aside: &str) -> Result<PathBuf> {
+        let case = f
+            .parent()
+            .and_then(Path::file_name)
+            .map(|n| n.to_os_string())
+            .unwrap_or_default();
+        let dir = self.dir.join(aside).join(case);
+        std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+        let name = f
+            .file_name()
+            .map(|n| n.to_string_lossy().to_string())
+            .unwrap_or_default();
+        let mut dest = dir.join(&name);
+        let mut k = 2;
+        while std::fs::symlink_metadata(&dest).is_ok() {
+            dest = dir.join(format!("{name}-{k}"));
+            k += 1;
+        }
+        std::fs::rename(f, &dest).map_err(|e| Error::io(f, e))?;
+        Ok(dest)
     }
 
     /// Whether the result of `case_id` × `method` is stored.
@@ -673,7 +697,7 @@ impl Store {
 
     pub fn get(&self, case_id: &str, method: &str) -> Result<CaseResult> {
         let path = self.result_path(case_id, method);
-        let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+        let text = super::files::read_regular(&path)?;
         serde_json::from_str(&text).map_err(|e| Error::parse(&path, "JSON", e.to_string()))
     }
 
@@ -684,9 +708,10 @@ impl Store {
         let Ok(rd) = std::fs::read_dir(&root) else {
             return Ok(out);
         };
+        // Real folders only (a link planted in `cases/` is not followed).
         let mut dirs: Vec<PathBuf> = rd
             .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.is_dir())
+            .filter(|p| std::fs::symlink_metadata(p).is_ok_and(|m| m.is_dir()))
             .collect();
         dirs.sort();
         for d in dirs {
@@ -702,9 +727,33 @@ impl Store {
                 .collect();
             files.sort();
             for f in files {
-                let text = std::fs::read_to_string(&f).map_err(|e| Error::io(&f, e))?;
-                let r: CaseResult = serde_json::from_str(&text)
-                    .map_err(|e| Error::parse(&f, "JSON", e.to_string()))?;
+                let text = super::files::read_regular(&f)?;
+                let r: CaseResult = match serde_json::from_str(&text) {
+                    Ok(r) => r,
+                    Err(e) => {
+                        // Truncated or corrupt (a crash of another tool, a
+                        // full disk): moved aside and computed again.
+                        let to = self.set_aside(&f, "corrupt")?;
+                        eprintln!(
+                            "warning: {}: not a result ({e}); moved to {} and computed again",
+                            f.display(),
+                            to.display()
+                        );
+                        continue;
+                    }
+                };
+                // Only the file a result is stored as counts (a copy under
+                // another name would be a second row).
+                if self.result_path(&r.case_id, &r.method) != f {
+                    eprintln!(
+                        "warning: {}: a result of case {} × method {} under another name                          (not {}); not counted",
+                        f.display(),
+                        r.case_id,
+                        r.method,
+                        self.result_path(&r.case_id, &r.method).display()
+                    );
+                    continue;
+                }
                 out.push(r);
             }
         }
