@@ -205,3 +205,25 @@ fn stray_copies_are_not_counted_and_corrupt_results_are_recomputed() {
     };
     assert_eq!(strip(&std::fs::read_to_string(&r).unwrap()), strip(&text));
 }
+
+#[test]
+fn a_write_failure_in_the_results_folder_is_not_a_method_failure() {
+    let t = tempfile::tempdir().unwrap();
+    let cfg = config(t.path());
+    let out = t.path().join("out");
+    // Where the method's render meshes go, a file: writing them fails (as
+    // on a full disk). Before, the row was stored as the method's failure
+    // and a plain re-run kept it.
+    let blocked = out.join("tiny/meshes/s0-t1-r0/id");
+    std::fs::create_dir_all(blocked.parent().unwrap()).unwrap();
+    std::fs::write(&blocked, b"not a folder").unwrap();
+    let (ok, err) = run(&cfg, &out);
+    assert!(!ok && err.contains("meshes/s0-t1-r0/id"), "{err}");
+    assert!(!out.join("tiny/cases/s0-t1-r0/id.json").exists(), "{err}");
+    // The cause removed, a plain re-run computes the row.
+    std::fs::remove_file(&blocked).unwrap();
+    let (ok, err) = run(&cfg, &out);
+    assert!(ok, "{err}");
+    let text = std::fs::read_to_string(out.join("tiny/cases/s0-t1-r0/id.json")).unwrap();
+    assert!(text.contains("\"status\":\"ok\""), "{text}");
+}
