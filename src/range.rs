@@ -173,11 +173,19 @@ impl<B: RealBounds> Real<B> {
 
     /// `deserialize_with` of an `Option<[f64; 2]>` key (each entry in range).
     pub fn de_pair<'de, D: Deserializer<'de>>(d: D) -> Result<Option<[f64; 2]>, D::Error> {
-        let v = <[f64; 2]>::deserialize(d)?;
-        for x in v {
+        // A list of any length is read, so that a third value is refused
+        // rather than dropped.
+        let v = Vec::<f64>::deserialize(d)?;
+        let [a, b] = v[..] else {
+            return Err(de::Error::custom(format!(
+                "expected two numbers, got {} ({v:?})",
+                v.len()
+            )));
+        };
+        for x in [a, b] {
             Self::check(x).map_err(de::Error::custom)?;
         }
-        Ok(Some(v))
+        Ok(Some([a, b]))
     }
 }
 
@@ -198,6 +206,12 @@ macro_rules! bounds {
 bounds!(
     /// `[0, ∞)`, finite.
     NonNegative: 0.0, f64::INFINITY
+);
+bounds!(
+    /// `[0, 1e6]`: a weight of an energy term against another (ARAP's λ):
+    /// beyond it the other term vanishes in rounding and the solve breaks
+    /// per case (λ = 1e308 overflowed the system).
+    Weight: 0.0, 1e6
 );
 bounds!(
     /// `(0, ∞)`, finite.

@@ -315,3 +315,94 @@ fn epsilon_sweep_from_one_command() {
     );
     assert_eq!(std::fs::read_dir(&out).unwrap().count(), before);
 }
+
+#[test]
+fn every_override_applies_as_written_or_is_refused() {
+    let d = tmp();
+    let cfg = write(d.path(), "tiny.toml", TINY);
+    let out = d.path().join("out");
+    let c = cfg.to_str().unwrap();
+    let o = out.to_str().unwrap();
+    // A table for an existing table would replace it whole (`mode` and
+    // `n_candidates` of the file silently back to their defaults).
+    cli_err(
+        &["run", c, "--out", o, "--set", "defaults={epsilon=0.02}"],
+        &[
+            "--set defaults={epsilon=0.02}",
+            "one by one",
+            "defaults.KEY=VALUE",
+        ],
+    );
+    // A key both set and swept: the set value would be dropped.
+    cli_err(
+        &[
+            "run",
+            c,
+            "--out",
+            o,
+            "--set",
+            "methods.auto.epsilon=0.02",
+            "--sweep",
+            "methods.auto.epsilon=0.01,0.03",
+        ],
+        &["methods.auto.epsilon", "also swept", "--sweep"],
+    );
+    assert!(!out.join("tiny").exists());
+}
+
+#[test]
+fn values_that_would_fail_later_are_refused_at_load() {
+    let d = tmp();
+    let out = d.path().join("out");
+    let o = out.to_str().unwrap();
+    // A third camera value was dropped.
+    let cfg = write(
+        d.path(),
+        "cam.toml",
+        format!("{TINY}\n[outputs]\ncamera = [10, 20, 30]\n").replace(
+            "[[outputs.plots]]\nkind = \"bars\"\nmethods = [\"auto\", \"identity\"]\nmetrics = [\"err_mean_area\"]\n",
+            "",
+        ),
+    );
+    cli_err(
+        &["run", cfg.to_str().unwrap(), "--out", o],
+        &["camera", "expected two numbers, got 3"],
+    );
+    // λ = 1e308 passed its range and failed in every case.
+    let cfg = write(
+        d.path(),
+        "lambda.toml",
+        TINY.replace("epsilon = 0.01", "epsilon = 0.01\nlambda = 1e308"),
+    );
+    cli_err(
+        &["run", cfg.to_str().unwrap(), "--out", o],
+        &["lambda", "out of range", "1000000"],
+    );
+    // rig_poses beyond the class's shapes, for a solving task (before:
+    // only the projection's skeleton dictionary was checked).
+    let cfg = write(
+        d.path(),
+        "rig.toml",
+        r#"name = "rig"
+[dataset.synthetic]
+subjects = 1
+poses = 5
+resolution = 1
+[cases]
+targets = []
+include_self = true
+per_pose = true
+reference_pose = "rest"
+poses = [2]
+[[methods]]
+name = "completion"
+kind = "fbt"
+fbt = { task = "completion", q = 2, rig = "class", rig_poses = 20, pipeline = "skeleton" }
+"#,
+    );
+    cli_err(
+        &["run", cfg.to_str().unwrap(), "--out", o],
+        &["rig_poses", "expected 1..="],
+    );
+    assert!(!out.join("rig").exists());
+}

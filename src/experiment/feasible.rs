@@ -23,7 +23,7 @@ use std::collections::HashMap;
 use super::cases::Case;
 use super::config::{FbtTask, LoadedConfig, Method};
 use super::dataset::Collection;
-use crate::methods::completion::DictionaryKind;
+use crate::methods::completion::RigSource;
 use crate::methods::{KeypointSource, Pool};
 use crate::{Error, Result};
 
@@ -251,10 +251,7 @@ pub fn check_against_data(l: &LoadedConfig, col: &Collection, cases: &[&Case]) -
                             ),
                         ));
                     }
-                    if f.task == FbtTask::Projection
-                        && f.dictionary == DictionaryKind::Skeleton
-                        && o.rig_poses > others
-                    {
+                    if f.uses_skeleton() && o.rig == RigSource::Class && o.rig_poses > others {
                         return Err(bad(
                             fbt_key(l, i, "rig_poses", o.rig_poses),
                             format!(

@@ -451,7 +451,19 @@ pub fn vary(
                 "the sweep is not set with --set; use --sweep KEY=V1,V2,...",
             ));
         }
-        set_path(&mut table, k, parse_value(v)).map_err(|m| Error::parse(&path, &what, m))?;
+        let value = parse_value(v);
+        // A table given for an existing table would replace it whole: the
+        // file's other keys there would silently fall back to defaults.
+        if value.is_table() && is_table_at(&table, k) {
+            return Err(Error::parse(
+                &path,
+                what,
+                format!(
+                    "`{k}` is a table of the config; a table value would replace all of it                      (its other keys reverting to their defaults): set its keys one by one,                      e.g. --set {k}.KEY=VALUE"
+                ),
+            ));
+        }
+        set_path(&mut table, k, value).map_err(|m| Error::parse(&path, &what, m))?;
         let t = strip_sweep(&table);
         current = reparse(&t, &current).map_err(|e| attribute(e, &path, &what))?;
     }
@@ -466,6 +478,21 @@ pub fn vary(
     for g in &mut grids {
         g.extend(cli.iter().cloned());
     }
+    // A key both set and swept: the sweep's values would replace the set
+    // one in every variant.
+    for s in set {
+        let (k, _) = assignment(s, "--set", "KEY=VALUE")?;
+        if let Some(a) = grids.iter().flatten().find(|a| a.key == k) {
+            return Err(Error::parse(
+                &path,
+                format!("--set {s}"),
+                format!(
+                    "`{k}` is also swept ({}): its values would replace the set one; drop                      one of the two",
+                    if a.from == "config" { "[sweep]" } else { "--sweep" }
+                ),
+            ));
+        }
+    }
     table.remove("sweep");
     let mut out = if grids.is_empty() {
         current
@@ -474,6 +501,20 @@ pub fn vary(
     };
     out.overrides = set.to_vec();
     Ok(out)
+}
+
+/// Whether the dotted `key` (no array addressing) names a table in `t`.
+fn is_table_at(t: &Table, key: &str) -> bool {
+    let mut cur = t;
+    let mut parts = key.split('.').peekable();
+    while let Some(p) = parts.next() {
+        match cur.get(p) {
+            Some(Value::Table(inner)) if parts.peek().is_none() => return !inner.is_empty(),
+            Some(Value::Table(inner)) => cur = inner,
+            _ => return false,
+        }
+    }
+    false
 }
 
 fn strip_sweep(t: &Table) -> Table {

@@ -72,6 +72,16 @@ impl FbtMethod {
         self.spec.solves_with_pipeline()
     }
 
+    /// Whether the method learns skeleton weights (the projection's
+    /// skeleton dictionary, or a solving pipeline with a skeleton stage).
+    pub fn uses_skeleton(&self) -> bool {
+        if self.task == FbtTask::Projection {
+            self.dictionary == DictionaryKind::Skeleton
+        } else {
+            self.solves_with_pipeline() && self.options.pipeline.uses_skeleton()
+        }
+    }
+
     /// Whether the task places feature points on the target.
     pub fn uses_features(&self) -> bool {
         matches!(

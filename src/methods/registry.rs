@@ -40,7 +40,7 @@ use super::target::{TargetCorrespondence, TargetPoints};
 use super::transfer::{cage_markers, rigid_markers, sumner_markers, MarkerBaseline, MarkerFn};
 use super::transfer::{BdtOptions, TransferMethod};
 use crate::ops::FpsMetric;
-use crate::range::{Int, NonNegative, Positive, Real, UnitInterval};
+use crate::range::{Int, NonNegative, Positive, Real, UnitInterval, Weight};
 use crate::skin::bbw::BbwOptions;
 use crate::skin::bbw::WeightMode;
 use crate::skin::{FeatureKind, GroupFeatures};
@@ -146,7 +146,7 @@ macro_rules! pipeline_struct {
             /// selection, the fit on A and the refinement on B (`refine = true`;
             /// there the key points are held with weight μ = 1e5, so λ only sets
             /// how soft they are and moves B′ little).
-            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Real::<NonNegative>::de")]
+            #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Real::<Weight>::de")]
             pub lambda: Option<f64>,
             /// Stage-2 passes at most (default: until a pass changes nothing, Algorithm 1).
             #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "Int::<0, 1000>::de")]
