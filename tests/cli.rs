@@ -72,6 +72,22 @@ fn inspect_names_bad_and_missing_files() {
     let out = deformlab().arg("inspect").arg(&missing).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("nope.ply"));
+    // A loop of symbolic links is named as such (before: "no such file").
+    #[cfg(unix)]
+    {
+        let (a, b) = (dir.path().join("loop-a.ply"), dir.path().join("loop-b.ply"));
+        std::os::unix::fs::symlink(&b, &a).unwrap();
+        std::os::unix::fs::symlink(&a, &b).unwrap();
+        let out = deformlab().arg("inspect").arg(&a).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains("loop-a.ply")
+                && err.contains("symbolic links")
+                && !err.contains("no such"),
+            "{err}"
+        );
+    }
 }
 
 #[test]

@@ -18,7 +18,10 @@ use deformlab::{Error, Mesh, Result};
 fn expand(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
     let mut out = Vec::new();
     for p in paths {
-        if p.is_dir() {
+        // The system's own reason when the path cannot be used (a loop of
+        // symbolic links, no permission), not "no such file" for all.
+        let meta = std::fs::metadata(p).map_err(|e| Error::io(p, e))?;
+        if meta.is_dir() {
             let mut files: Vec<PathBuf> = std::fs::read_dir(p)
                 .map_err(|e| Error::io(p, e))?
                 .filter_map(|e| e.ok().map(|e| e.path()))
@@ -29,13 +32,8 @@ fn expand(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
                 .collect();
             files.sort();
             out.extend(files);
-        } else if p.exists() {
-            out.push(p.clone());
         } else {
-            return Err(Error::io(
-                p,
-                std::io::Error::new(std::io::ErrorKind::NotFound, "no such file or folder"),
-            ));
+            out.push(p.clone());
         }
     }
     Ok(out)
