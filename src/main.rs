@@ -4,8 +4,6 @@ mod cli;
 
 use std::process::ExitCode;
 
-use clap::Parser;
-
 fn main() -> ExitCode {
     // A closed pipe (`deformlab weights … | head`) ends the process quietly,
     // as it does for other command-line tools, instead of a panic in
@@ -18,7 +16,7 @@ fn main() -> ExitCode {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     deformlab::solve::keep_freed_memory();
-    let args = cli::Cli::parse();
+    let args = cli::Cli::parse_from_args(std::env::args_os());
     match cli::run(args) {
         Ok(code) => code,
         Err(e) => {

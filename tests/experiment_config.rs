@@ -96,6 +96,61 @@ fn wrong_type_names_the_key_and_the_expected_type() {
     );
 }
 
+/// Errors the former line-based key finder named wrongly: a missing field
+/// of the second `[[methods]]` (named the table above it), a quoted key
+/// (named the table), a value spread over lines (named the table, or an
+/// array element as a key `3`), a redefined table (named the table above
+/// it) and an unknown key of an inline table (named its first key).
+#[test]
+fn errors_name_the_key_from_the_parse_tree() {
+    let cases: [(String, &str, &str); 6] = [
+        (
+            GOOD.replace("kind = \"bdt_random\"\n", ""),
+            "key `methods[1]` (line 13)",
+            "missing field `kind`",
+        ),
+        (
+            GOOD.replace("count = 4", "\"count\" = \"four\""),
+            "key `methods[1].count`",
+            "invalid type",
+        ),
+        (
+            GOOD.replace(
+                "resolution = 1",
+                "resolution = 1\nposes_list = [\n  1,\n  \"x\"\n]",
+            )
+            .replace("poses_list", "subjects_x"),
+            "key `dataset.synthetic.subjects_x`",
+            "unknown field",
+        ),
+        (
+            format!("{GOOD}[outputs]\ncamera = [1,\n  \"a\"]\n"),
+            "key `outputs.camera[1]` (line 20)",
+            "invalid type: string \"a\"",
+        ),
+        (
+            format!("{GOOD}[dataset.synthetic]\nsubjects = 3\n"),
+            "key `dataset.synthetic` (line 18)",
+            "duplicate key",
+        ),
+        (
+            GOOD.replace(
+                "count = 4",
+                "count = 4\nfbt = { task = \"projection\", colour = 1 }",
+            ),
+            "key `methods[1].fbt.colour`",
+            "unknown field `colour`",
+        ),
+    ];
+    for (text, key, what) in cases {
+        let e = error_of(&text);
+        assert!(
+            e.contains(key) && e.contains(what),
+            "want {key}: {what}\ngot {e}"
+        );
+    }
+}
+
 #[test]
 fn missing_dataset_path_is_named() {
     let t = tempfile::tempdir().unwrap();

@@ -8,7 +8,7 @@ use std::process::ExitCode;
 
 use deformlab::mesh::io::{read_raw, Format};
 use deformlab::mesh::set::ConnectivityReport;
-use deformlab::mesh::validate::DefectReport;
+use deformlab::mesh::validate::{flattened, DefectReport};
 use deformlab::{Error, Mesh, Result};
 
 /// Expands folders into the mesh files they hold (sorted); files are kept as
@@ -53,7 +53,6 @@ pub fn run(paths: &[PathBuf], brief: bool) -> Result<ExitCode> {
             }
             Ok(raw) => {
                 let report = DefectReport::of(&raw);
-                clean += usize::from(report.is_clean());
                 if brief {
                     println!("{}: {}", path.display(), report.summary());
                 } else {
@@ -75,16 +74,26 @@ pub fn run(paths: &[PathBuf], brief: bool) -> Result<ExitCode> {
                 } else {
                     None
                 };
-                match refusal {
-                    Some(why) => {
+                let mesh = match refusal {
+                    Some(why) => Err(why),
+                    None => match Mesh::try_from(raw) {
+                        Ok(m) => match flattened(&m, &report) {
+                            Some(why) => Err(format!("UNUSABLE: {why}; no command can use it")),
+                            None => Ok(Some(m)),
+                        },
+                        Err(_) => Ok(None),
+                    },
+                };
+                match mesh {
+                    Err(why) => {
                         unusable += 1;
                         println!("{}: {why}", path.display());
                     }
-                    None => {
-                        if let Ok(m) = Mesh::try_from(raw) {
-                            loaded.push((path.clone(), m));
-                        }
+                    Ok(Some(m)) => {
+                        clean += usize::from(report.is_clean());
+                        loaded.push((path.clone(), m));
                     }
+                    Ok(None) => {}
                 }
                 if !brief {
                     println!();

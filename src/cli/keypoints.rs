@@ -287,6 +287,9 @@ pub fn run(a: KeypointsArgs) -> Result<ExitCode> {
         .map(|d| vec![d.join("keypoints.csv"), d.join("log.json")])
         .unwrap_or_default();
     refuse_overwrite(&outputs, a.force)?;
+    if let Some(dir) = &a.out {
+        prepare_out_dir(dir)?;
+    }
     let mut checks = Vec::new();
     let (source, deformed) = a.select.load(&mut checks)?;
     let opts = a.select.options();
@@ -345,6 +348,44 @@ pub fn refuse_overwrite(paths: &[PathBuf], force: bool) -> Result<()> {
 
 pub fn create_dir(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))
+}
+
+/// The output folder `--out DIR`, made before anything is computed: an
+/// existing file of that name, or a path that cannot be made into a folder,
+/// is refused at once instead of after the computation.
+pub fn prepare_out_dir(dir: &Path) -> Result<()> {
+    match std::fs::metadata(dir) {
+        Ok(m) if m.is_dir() => Ok(()),
+        Ok(_) => Err(Error::invalid(format!(
+            "--out {}: a file of that name exists; --out names a folder",
+            dir.display()
+        ))),
+        Err(_) => create_dir(dir),
+    }
+}
+
+/// The output file `--out FILE`, checked before anything is computed: a
+/// folder of that name, or a parent that is not an existing folder, is
+/// refused at once instead of after the computation.
+pub fn check_out_file(file: &Path) -> Result<()> {
+    if file.is_dir() {
+        return Err(Error::invalid(format!(
+            "--out {}: is a folder; --out names the file to write",
+            file.display()
+        )));
+    }
+    let parent = match file.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !parent.is_dir() {
+        return Err(Error::invalid(format!(
+            "--out {}: the folder {} does not exist (or is not a folder)",
+            file.display(),
+            parent.display()
+        )));
+    }
+    Ok(())
 }
 
 pub fn write_json(path: &Path, v: &Value) -> Result<()> {

@@ -47,6 +47,24 @@ pub struct Cli {
     pub command: Command,
 }
 
+impl Cli {
+    /// Parses `args` (the program name first). Every subcommand takes a
+    /// negative number after an option as its value, so `--epsilon -1`
+    /// reaches the option's range check; clap's default calls it an
+    /// unexpected argument and suggests `-- -1`, which would turn the
+    /// number into a positional argument (a config path for `run`).
+    pub fn parse_from_args<I, T>(args: I) -> Self
+    where
+        I: IntoIterator<Item = T>,
+        T: Into<std::ffi::OsString> + Clone,
+    {
+        let command = <Self as clap::CommandFactory>::command()
+            .mut_subcommands(|c| c.allow_negative_numbers(true));
+        let matches = command.get_matches_from(args);
+        <Self as clap::FromArgMatches>::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())
+    }
+}
+
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Write the synthetic data set: a FAUST-style folder (S subjects × P

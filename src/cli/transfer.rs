@@ -37,8 +37,8 @@ use deformlab::transfer::{FrameAlign, TargetWeights, TransferFrame};
 use deformlab::{Error, Mesh, Result};
 
 use super::keypoints::{
-    check_size, create_dir, load_checked, print_selection, read_keypoints_csv, refuse_overwrite,
-    selection_json, write_json, write_keypoints_csv, KeypointRow, SelectArgs,
+    check_size, create_dir, load_checked, prepare_out_dir, print_selection, read_keypoints_csv,
+    refuse_overwrite, selection_json, write_json, write_keypoints_csv, KeypointRow, SelectArgs,
 };
 
 /// `deformlab transfer` arguments.
@@ -354,6 +354,7 @@ pub fn run(a: TransferArgs) -> Result<ExitCode> {
         all_out.push(reg_out.clone());
     }
     refuse_overwrite(&all_out, a.force)?;
+    prepare_out_dir(&a.out)?;
 
     let mut checks = Vec::new();
     let (source, deformed) = a.select.load(&mut checks)?;

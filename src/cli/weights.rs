@@ -90,6 +90,7 @@ pub fn run(a: WeightsArgs) -> Result<ExitCode> {
         repair: a.repair,
     };
     if let Some(out) = &a.out {
+        super::keypoints::check_out_file(out)?;
         if out.exists() && !a.force {
             return Err(Error::invalid(format!(
                 "{}: exists (give --force to overwrite)",

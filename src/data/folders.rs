@@ -381,15 +381,16 @@ impl Manifest {
         let mut meshes: Vec<ManifestMesh> = Vec::new();
         for (i, m) in spec.mesh.into_iter().enumerate() {
             let p = root.resolve(Path::new(&m.file), dir);
-            if !p.exists() {
+            if let Some(why) = crate::mesh::io::path_problem(&p) {
+                let hint = if why == "does not exist" {
+                    root.hint(Path::new(&m.file))
+                } else {
+                    String::new()
+                };
                 return Err(Error::parse(
                     path,
                     format!("mesh[{i}].file"),
-                    format!(
-                        "{} does not exist{}",
-                        p.display(),
-                        root.hint(Path::new(&m.file))
-                    ),
+                    format!("{} {why}{hint}", p.display()),
                 ));
             }
             check_regular_file(&p)?;
@@ -422,15 +423,16 @@ impl Manifest {
             let source = find("source", &c.source)?;
             let target = find("target", &c.target)?;
             let p = root.resolve(Path::new(&c.file), dir);
-            if !p.exists() {
+            if let Some(why) = crate::mesh::io::path_problem(&p) {
+                let hint = if why == "does not exist" {
+                    root.hint(Path::new(&c.file))
+                } else {
+                    String::new()
+                };
                 return Err(Error::parse(
                     path,
                     format!("correspondence[{i}].file"),
-                    format!(
-                        "{} does not exist{}",
-                        p.display(),
-                        root.hint(Path::new(&c.file))
-                    ),
+                    format!("{} {why}{hint}", p.display()),
                 ));
             }
             check_regular_file(&p)?;

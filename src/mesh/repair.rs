@@ -253,7 +253,11 @@ impl DefectPolicy {
                 repair = Some(plan);
             }
         }
-        let defects = DefectReport::of_mesh(&mesh).result_defects();
+        let report = DefectReport::of_mesh(&mesh);
+        if let Some(why) = super::validate::flattened(&mesh, &report) {
+            return Err(Error::parse(file, "mesh", why));
+        }
+        let defects = report.result_defects();
         if self.strict && !defects.is_empty() {
             return Err(Error::parse(
                 file,

@@ -231,6 +231,64 @@ impl DefectReport {
     }
 }
 
+/// A closed surface is *flattened* when every vertex lies within
+/// `FLAT_RELATIVE × extent` of one plane (extent: half the bounding-box
+/// diagonal): its two sides then fold onto each other, faces at the rim
+/// collapse and the cotangent Laplacian is singular, so every method on it
+/// fails, each in its own words. A flat open surface (a disk) is fine.
+pub const FLAT_RELATIVE: f64 = 1e-6;
+
+/// When the mesh has a closed component (no boundary edges in `report`,
+/// the mesh's own [`DefectReport`]) and all its referenced vertices lie in
+/// one plane ([`FLAT_RELATIVE`]): what it is, for a message.
+pub fn flattened(mesh: &Mesh, report: &DefectReport) -> Option<String> {
+    if !report.components.iter().any(|c| c.boundary_edges == 0) {
+        return None;
+    }
+    let mut used = vec![false; mesh.n_vertices()];
+    for f in mesh.faces() {
+        for &v in f {
+            used[v] = true;
+        }
+    }
+    let points: Vec<Point> = mesh
+        .vertices()
+        .iter()
+        .zip(&used)
+        .filter(|(_, &u)| u)
+        .map(|(p, _)| *p)
+        .collect();
+    let extent = super::half_diagonal(&points);
+    if points.len() < 4 || extent.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return None;
+    }
+    let n = points.len() as f64;
+    let centre = points
+        .iter()
+        .fold(crate::Vec3::zeros(), |a, p| a + p.coords)
+        / n;
+    let mut cov = nalgebra::Matrix3::<f64>::zeros();
+    for p in &points {
+        let d = (p.coords - centre) / extent;
+        cov += d * d.transpose();
+    }
+    let eig = nalgebra::SymmetricEigen::new(cov);
+    let k = eig.eigenvalues.imin();
+    let normal = eig.eigenvectors.column(k).into_owned();
+    let thickness = points
+        .iter()
+        .map(|p| ((p.coords - centre).dot(&normal)).abs())
+        .fold(0.0, f64::max);
+    (thickness <= FLAT_RELATIVE * extent).then(|| {
+        format!(
+            "the mesh is flattened: it is a closed surface, yet every vertex lies within \
+             {thickness:.1e} of one plane (its extent is {extent:.3e}), so its two sides fold \
+             onto each other and its Laplacian is singular (a coordinate dropped or overwritten, \
+             e.g. by a property declared twice?)"
+        )
+    })
+}
+
 /// Whether a face (indices in range) is zero-area: `area ≤
 /// ZERO_AREA_RELATIVE · L²` with `L` its longest edge, or `L = 0`.
 pub fn is_zero_area(vertices: &[Point], f: &Face) -> bool {

@@ -310,6 +310,11 @@ pub struct Biharmonic {
 }
 
 impl Biharmonic {
+    /// The connected components of the mesh's Laplacian graph.
+    pub fn n_components(&self) -> usize {
+        self.n_components
+    }
+
     /// Builds `L`, `M` (Voronoi) and `Q = L M⁻¹ L`. Errors if a vertex has
     /// zero mass (an isolated vertex, or one only in degenerate faces): `M⁻¹`
     /// and hence the biharmonic system would be singular there.

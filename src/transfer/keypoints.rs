@@ -1042,9 +1042,14 @@ impl GreenBasis {
             .map(|(i, j, &v)| (i - 1, j - 1, v));
         let qr = sparse_from_triplets(n - 1, n - 1, trip);
         let fac = SparseCholesky::new(&qr).map_err(|e| {
+            let why = match bih.n_components() {
+                1 => "nearly degenerate or folded triangles make it so (is the mesh flattened \
+                      or crushed somewhere?)"
+                    .to_string(),
+                k => format!("the mesh has {k} separate components; it must be connected"),
+            };
             Error::numerical(format!(
-                "fast key point mode: the grounded biharmonic system is singular (is the mesh \
-                 connected?): {e}"
+                "fast key point mode: the grounded biharmonic system is singular: {why}: {e}"
             ))
         })?;
         let mass = bih.mass();

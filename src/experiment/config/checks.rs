@@ -51,8 +51,16 @@ impl LoadedConfig {
                 full.is_file()
             };
             let what = if want_dir { "folder" } else { "file" };
+            let problem = crate::mesh::io::path_problem(&full);
             if ok {
                 Ok(())
+            } else if let Some(why) = problem.filter(|w| w != "does not exist") {
+                // A loop of symbolic links, no permission: the system's reason.
+                Err(bad(
+                    &c.path,
+                    key,
+                    format!("expected a {what}, but {} {why}", full.display()),
+                ))
             } else if full.exists() {
                 // A file for a folder; a FIFO or a device for a file (which
                 // would block or never end).

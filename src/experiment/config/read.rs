@@ -2,7 +2,6 @@
 //! path and line, and the methods resolved through the registry
 //! ([`crate::methods::registry`]).
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use super::{bad, valid_name, Config, LoadedConfig, NamedMethod};
@@ -11,99 +10,102 @@ use crate::methods::registry::resolve_entry;
 use crate::{Error, Result};
 
 /// The key path (`methods[1].n_candidates`) and line of a byte offset in a
-/// TOML text, reconstructed from the table headers above it and the key on
-/// its line.
+/// TOML text, found in the document's parse tree (with its spans): the
+/// innermost key, value or array element whose span holds the offset, else
+/// the table whose header is the last before it (a `[[methods]]` header
+/// names `methods[i]`, a value spread over lines names its key). A document
+/// that does not parse cleanly (a duplicate key) is read as far as it goes.
 pub(super) fn key_at(text: &str, offset: usize) -> (String, usize) {
     let mut offset = offset.min(text.len());
     while !text.is_char_boundary(offset) {
         offset -= 1;
     }
-    let line_start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
     let line_no = text[..offset].matches('\n').count() + 1;
-    let mut table = String::new();
-    let mut arrays: BTreeMap<String, usize> = BTreeMap::new();
-    let mut array_paths: BTreeMap<String, String> = BTreeMap::new();
-    for line in text[..line_start].lines() {
-        let t = line.trim();
-        if let Some(inner) = t.strip_prefix("[[").and_then(|r| r.split("]]").next()) {
-            let name = inner.trim().to_string();
-            let c = arrays.entry(name.clone()).or_insert(0);
-            let path = format!("{}[{}]", expand(&name, &array_paths), *c);
-            *c += 1;
-            array_paths.insert(name, path.clone());
-            table = path;
-        } else if let Some(inner) = t.strip_prefix('[').and_then(|r| r.split(']').next()) {
-            table = expand(inner.trim(), &array_paths);
-        }
-    }
-    let line_end = text[offset..].find('\n').map_or(text.len(), |i| offset + i);
-    let line = &text[line_start..line_end];
-    let before = &text[line_start..offset];
-    let word = |s: &str| -> Option<String> {
-        let w: String = s
-            .trim_start()
-            .chars()
-            .take_while(|c| c.is_ascii_alphanumeric() || *c == '_' || *c == '-')
-            .collect();
-        (!w.is_empty()).then_some(w)
-    };
-    let key = if line.trim_start().starts_with('[') {
-        None
-    } else if before.trim().is_empty() {
-        word(&text[offset..line_end])
-    } else {
-        // The last `key =` before the offset on this line (inline tables too).
-        let mut found = None;
-        let mut inline_path: Vec<String> = Vec::new();
-        for (i, ch) in before.char_indices() {
-            if ch == '=' {
-                let head = before[..i].trim_end();
-                let start = head
-                    .rfind(|c: char| {
-                        !(c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.')
-                    })
-                    .map_or(0, |p| {
-                        p + head[p..].chars().next().map_or(1, char::len_utf8)
-                    });
-                let k = head[start..].to_string();
-                if !k.is_empty() {
-                    found = Some(k);
-                }
-            } else if ch == '{' {
-                if let Some(k) = found.take() {
-                    inline_path.push(k);
-                }
-            } else if ch == '}' {
-                inline_path.pop();
-            }
-        }
-        found.map(|k| {
-            if inline_path.is_empty() {
-                k
-            } else {
-                format!("{}.{k}", inline_path.join("."))
-            }
-        })
-    };
-    let path = match (table.is_empty(), key) {
-        (_, None) => table,
-        (true, Some(k)) => k,
-        (false, Some(k)) => format!("{table}.{k}"),
+    let (doc, _) = toml::de::DeTable::parse_recoverable(text);
+    let mut spans = Vec::new();
+    collect_spans(doc.get_ref(), "", text, &mut spans);
+    // The innermost span holding the offset (ties: the later-collected,
+    // deeper one).
+    let inner = spans
+        .iter()
+        .filter(|s| s.range.contains(&offset))
+        .min_by_key(|s| s.range.len());
+    let path = match inner {
+        Some(s) => s.path.clone(),
+        None => spans
+            .iter()
+            .filter(|s| s.header && s.range.start <= offset)
+            .max_by_key(|s| s.range.start)
+            .map(|s| s.path.clone())
+            .unwrap_or_default(),
     };
     (path, line_no)
 }
 
-/// `methods.x` → `methods[2].x` when `methods` is an array of tables.
-fn expand(name: &str, arrays: &BTreeMap<String, String>) -> String {
-    let mut best: Option<(&String, &String)> = None;
-    for (k, v) in arrays {
-        if name.starts_with(&format!("{k}.")) && best.is_none_or(|(b, _)| k.len() > b.len()) {
-            best = Some((k, v));
+/// A span of a config text and the key path it belongs to; `header`: the
+/// span is a `[table]` or `[[array]]` header.
+struct KeySpan {
+    range: std::ops::Range<usize>,
+    path: String,
+    header: bool,
+}
+
+fn collect_spans(table: &toml::de::DeTable<'_>, prefix: &str, text: &str, out: &mut Vec<KeySpan>) {
+    use toml::de::DeValue;
+    let join = |k: &str| {
+        if prefix.is_empty() {
+            k.to_string()
+        } else {
+            format!("{prefix}.{k}")
         }
-    }
-    match best {
-        Some((k, v)) => format!("{v}{}", &name[k.len()..]),
-        None => name.to_string(),
+    };
+    let is_header =
+        |r: &std::ops::Range<usize>| text.get(r.clone()).is_some_and(|t| t.starts_with('['));
+    for (k, v) in table.iter() {
+        let path = join(k.get_ref());
+        out.push(KeySpan {
+            range: k.span(),
+            path: path.clone(),
+            header: false,
+        });
+        let vr = v.span();
+        match v.get_ref() {
+            DeValue::Table(t) => {
+                out.push(KeySpan {
+                    header: is_header(&vr),
+                    range: vr,
+                    path: path.clone(),
+                });
+                collect_spans(t, &path, text, out);
+            }
+            DeValue::Array(a) => {
+                let header = a.iter().any(|e| is_header(&e.span()));
+                if !header {
+                    out.push(KeySpan {
+                        range: vr,
+                        path: path.clone(),
+                        header: false,
+                    });
+                }
+                for (i, e) in a.iter().enumerate() {
+                    let p = format!("{path}[{i}]");
+                    let er = e.span();
+                    out.push(KeySpan {
+                        header: is_header(&er),
+                        range: er,
+                        path: p.clone(),
+                    });
+                    if let DeValue::Table(t) = e.get_ref() {
+                        collect_spans(t, &p, text, out);
+                    }
+                }
+            }
+            _ => out.push(KeySpan {
+                range: vr,
+                path,
+                header: false,
+            }),
+        }
     }
 }
 
@@ -114,7 +116,21 @@ pub(crate) fn parse_unchecked_in(text: &str, path: &Path, root: &DataRoot) -> Re
         let msg = e.message().trim().to_string();
         match e.span() {
             Some(span) => {
-                let (key, line) = key_at(text, span.start);
+                let (mut key, line) = key_at(text, span.start);
+                // An unknown key of an inline table is reported at the table.
+                if let Some(field) = msg
+                    .strip_prefix("unknown field `")
+                    .and_then(|r| r.split('`').next())
+                {
+                    let last = key.rsplit('.').next().unwrap_or("");
+                    if last != field {
+                        key = if key.is_empty() {
+                            field.to_string()
+                        } else {
+                            format!("{key}.{field}")
+                        };
+                    }
+                }
                 let location = if key.is_empty() {
                     format!("line {line}")
                 } else {

@@ -108,6 +108,19 @@ pub fn check_regular_file(path: &Path) -> Result<u64> {
     }
 }
 
+/// Why an input path cannot be used, in the system's words: `None` when
+/// it can be looked up; "does not exist" when nothing is there; else the
+/// system's reason (a loop of symbolic links, no permission to search a
+/// folder on the way), which a plain existence test would also call
+/// missing.
+pub fn path_problem(path: &Path) -> Option<String> {
+    match std::fs::metadata(path) {
+        Ok(_) => None,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Some("does not exist".to_string()),
+        Err(e) => Some(format!("cannot be opened: {e}")),
+    }
+}
+
 /// The bytes of an input file: a regular file (or a link to one, see
 /// [`check_regular_file`]), read up to the size it had when opened (a file
 /// that grows meanwhile is not followed).

@@ -162,6 +162,121 @@ fn check_binary_sizes(path: &Path, header: &Header, file_len: usize) -> Result<(
     Ok(())
 }
 
+/// A property declared twice in one element is refused, naming both
+/// lines: the header parser keeps one of the two, so the values of a row
+/// would be read under the wrong names (a second `z` flattens the mesh).
+/// Elements declared twice are refused the same way.
+fn check_unique_properties(path: &Path, bytes: &[u8]) -> Result<()> {
+    let head = &bytes[..bytes.len().min(1 << 16)];
+    let text = String::from_utf8_lossy(head);
+    let mut elements: Vec<(String, usize)> = Vec::new();
+    let mut seen: Vec<(String, usize)> = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("end_header") => break,
+            Some("element") => {
+                let name = words.next().unwrap_or("").to_string();
+                if let Some((_, first)) = elements.iter().find(|(n, _)| *n == name) {
+                    return Err(Error::parse(
+                        path,
+                        "header",
+                        format!(
+                            "element '{name}' is declared twice (lines {} and {})",
+                            first,
+                            i + 1
+                        ),
+                    ));
+                }
+                elements.push((name, i + 1));
+                seen.clear();
+            }
+            Some("property") => {
+                // `property TYPE NAME` or `property list COUNT INDEX NAME`.
+                let Some(name) = line.split_whitespace().last() else {
+                    continue;
+                };
+                if let Some((_, first)) = seen.iter().find(|(n, _)| n == name) {
+                    let element = elements.last().map_or("", |(n, _)| n.as_str());
+                    return Err(Error::parse(
+                        path,
+                        "header",
+                        format!(
+                            "property '{name}' of element '{element}' is declared twice \
+                             (lines {first} and {}); its values cannot be told apart",
+                            i + 1
+                        ),
+                    ));
+                }
+                seen.push((name.to_string(), i + 1));
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// What is wrong with the data line an ASCII parse error points at
+/// (`ply-rs-bw` says "Line 14: Couldn't read element line" and quotes its
+/// grammar): the place (`element 'vertex' item 4 (line 14)`) and the first value that is
+/// not a number, or not a finite one, or a count of values that does not
+/// match the header. `None` when the message names no line or the line
+/// shows nothing wrong.
+fn explain_ascii_line(bytes: &[u8], header: &Header, message: &str) -> Option<(String, String)> {
+    if header.encoding != Encoding::Ascii {
+        return None;
+    }
+    let n: usize = message
+        .strip_prefix("Line ")?
+        .split(':')
+        .next()?
+        .trim()
+        .parse()
+        .ok()?;
+    let text = String::from_utf8_lossy(bytes);
+    let mut lines = text.lines();
+    let header_lines = lines.by_ref().position(|l| l.trim() == "end_header")? + 1;
+    let line = text.lines().nth(n.checked_sub(1)?)?;
+    // Which element and item the line holds.
+    let mut item = n.checked_sub(header_lines + 1)?;
+    let mut element = None;
+    for def in header.elements.values() {
+        if item < def.count {
+            element = Some(def);
+            break;
+        }
+        item -= def.count;
+    }
+    let def = element?;
+    let place = format!("element '{}' item {item} (line {n})", def.name);
+    let words: Vec<&str> = line.split_whitespace().collect();
+    for w in &words {
+        match w.parse::<f64>() {
+            Err(_) => return Some((place, format!("'{w}' is not a number"))),
+            Ok(v) if !v.is_finite() => {
+                return Some((place, format!("'{w}' is not a finite number")))
+            }
+            Ok(_) => {}
+        }
+    }
+    let scalars = def
+        .properties
+        .values()
+        .all(|p| matches!(p.data_type, PropertyType::Scalar(_)));
+    if scalars && words.len() != def.properties.len() {
+        return Some((
+            place,
+            format!(
+                "{} values, but the header declares {} properties for '{}'",
+                words.len(),
+                def.properties.len(),
+                def.name
+            ),
+        ));
+    }
+    None
+}
+
 /// `ply-rs-bw` says "Line 3: Couldn't parse line."; append the text of that
 /// header line so the user sees what was wrong.
 fn quote_header_line(bytes: &[u8], message: &str) -> String {
@@ -209,6 +324,7 @@ pub(super) fn parse_ply(path: &Path, bytes: &[u8]) -> Result<RawMesh> {
         .map_err(|e| Error::parse(path, "header", quote_header_line(bytes, &e.to_string())))?;
 
     // Check the header before reading any data.
+    check_unique_properties(path, bytes)?;
     let vdef = header
         .elements
         .get("vertex")
@@ -268,11 +384,11 @@ pub(super) fn parse_ply(path: &Path, bytes: &[u8]) -> Result<RawMesh> {
             continue; // no bytes to read, however many items are announced
         }
         let wrap = |e: ply_rs_bw::parser::ParseError| {
-            Error::parse(
-                path,
-                format!("element '{}'", def.name),
-                tidy(&e.to_string()),
-            )
+            let message = e.to_string();
+            match explain_ascii_line(bytes, &header, &message) {
+                Some((place, why)) => Error::parse(path, place, why),
+                None => Error::parse(path, format!("element '{}'", def.name), tidy(&message)),
+            }
         };
         match def.name.as_str() {
             "vertex" => {
@@ -330,6 +446,7 @@ pub(super) fn parse_vertex_scalar(
     let header = Parser::<Skip>::new()
         .read_header(&mut reader)
         .map_err(|e| Error::parse(path, "header", quote_header_line(bytes, &e.to_string())))?;
+    check_unique_properties(path, bytes)?;
     let vdef = header
         .elements
         .get("vertex")
@@ -351,11 +468,11 @@ pub(super) fn parse_vertex_scalar(
             continue;
         }
         let wrap = |e: ply_rs_bw::parser::ParseError| {
-            Error::parse(
-                path,
-                format!("element '{}'", def.name),
-                tidy(&e.to_string()),
-            )
+            let message = e.to_string();
+            match explain_ascii_line(bytes, &header, &message) {
+                Some((place, why)) => Error::parse(path, place, why),
+                None => Error::parse(path, format!("element '{}'", def.name), tidy(&message)),
+            }
         };
         if def.name == "vertex" {
             let vs = Parser::<DefaultElement>::new()

@@ -21,12 +21,17 @@ fn pair(path: &Path) -> (PathBuf, PathBuf) {
 pub(super) fn read_vert_tri(path: &Path) -> Result<RawMesh> {
     let (vert, tri) = pair(path);
     for (p, other) in [(&vert, &tri), (&tri, &vert)] {
-        if !p.exists() {
+        if let Some(why) = super::path_problem(p) {
+            let why = if why == "does not exist" {
+                "is missing".to_string()
+            } else {
+                why
+            };
             return Err(Error::parse(
                 other,
                 "file",
                 format!(
-                    "the matching file {} of this TOSCA .vert/.tri pair is missing",
+                    "the matching file {} of this TOSCA .vert/.tri pair {why}",
                     p.display()
                 ),
             ));
