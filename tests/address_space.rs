@@ -79,3 +79,74 @@ fn runs_fit_their_workers_in_an_address_space_limit() {
         "{err}"
     );
 }
+
+/// The commands outside `run` use the global thread pool (key point
+/// candidates, transfers): with room for about two threads and eight asked
+/// (`RAYON_NUM_THREADS`), `keypoints` and `transfer` aborted in a thread's
+/// first dense product ("memory allocation of … bytes failed"); now they
+/// run with the threads that fit and say so.
+#[test]
+fn commands_fit_the_global_pool_in_an_address_space_limit() {
+    use deformlab::data::synthetic::{self, FaustStyle};
+    let t = tempfile::tempdir().unwrap();
+    let set = FaustStyle {
+        subjects: 1,
+        poses: 3,
+        resolution: 1,
+        ..FaustStyle::default()
+    }
+    .generate()
+    .unwrap();
+    synthetic::write_faust_style(t.path(), &set).unwrap();
+    let mesh = |i: usize| t.path().join(format!("tr_reg_00{i}.ply"));
+    let buffer = dense_buffer_per_thread() >> 10;
+    let kib = 160 * 1024 + buffer + 2 * (buffer + 16 * 1024) + 8 * 1024;
+    let limited = |args: &[&std::ffi::OsStr]| {
+        Command::new("sh")
+            .arg("-c")
+            .arg(format!("ulimit -v {kib} && exec \"$@\""))
+            .arg("sh")
+            .arg(env!("CARGO_BIN_EXE_deformlab"))
+            .args(args)
+            .env("RAYON_NUM_THREADS", "8")
+            .output()
+            .expect("spawn sh")
+    };
+    let (a, a1, a2) = (mesh(0), mesh(1), mesh(2));
+    let out = t.path().join("out");
+    for args in [
+        vec![
+            "keypoints".as_ref(),
+            "--source".as_ref(),
+            a.as_os_str(),
+            "--deformed".as_ref(),
+            a1.as_os_str(),
+            a2.as_os_str(),
+            "--max-keypoints".as_ref(),
+            "3".as_ref(),
+        ],
+        vec![
+            "transfer".as_ref(),
+            "--source".as_ref(),
+            a.as_os_str(),
+            "--deformed".as_ref(),
+            a1.as_os_str(),
+            "--target".as_ref(),
+            a2.as_os_str(),
+            "--same-connectivity".as_ref(),
+            "--max-keypoints".as_ref(),
+            "3".as_ref(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ],
+    ] {
+        let o = limited(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{kib} KiB, {:?}: {err}", args[0]);
+        assert!(
+            err.contains("ulimit -v") && err.contains("of the 8 threads"),
+            "{err}"
+        );
+    }
+    assert!(out.join("tr_reg_001_to_tr_reg_002.ply").is_file());
+}

@@ -114,7 +114,8 @@ fn ply_header_and_values_are_named() {
     let o = run(&["inspect", word.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(
-        !o.status.success() && text.contains("element 'vertex' item 1 (line 11): 'zero' is not a number"),
+        !o.status.success()
+            && text.contains("element 'vertex' item 1 (line 11): 'zero' is not a number"),
         "{text}"
     );
 }

@@ -13,6 +13,10 @@ pub fn run(groups: &[String], quick: bool, threads: usize, exact_full: bool) -> 
              selections to it); add keypoints to the groups or drop --exact-full",
         ));
     }
+    let (threads, warning) = deformlab::solve::address::fit_threads(threads)?;
+    if let Some(w) = warning {
+        eprintln!("warning: {w}");
+    }
     deformlab::solve::set_threads(threads);
     eprintln!(
         "benchmarking {} ({} mode, {} solver thread(s)); this takes {}",

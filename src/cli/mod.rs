@@ -168,8 +168,39 @@ pub enum Command {
     Methods,
 }
 
+/// Under an address-space limit (`ulimit -v`), the global thread pool
+/// (key point candidates, transfers, plots, bench stages) gets as many of
+/// its threads (`RAYON_NUM_THREADS`, else the available cores) as fit, with
+/// a warning, or the command stops at once naming the limit
+/// ([`deformlab::solve::address::fit_threads`]); each thread's first dense
+/// product reserves a buffer that would otherwise abort the process.
+/// Without a limit nothing changes. `run` sizes its own pool the same way.
+fn fit_global_pool() -> Result<()> {
+    use deformlab::solve::address::{address_space_limit, fit_threads};
+    if address_space_limit().is_none() {
+        return Ok(());
+    }
+    let want = std::env::var("RAYON_NUM_THREADS")
+        .ok()
+        .and_then(|v| v.trim().parse::<usize>().ok())
+        .filter(|&n| n > 0)
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let (n, warning) = fit_threads(want)?;
+    if let Some(w) = warning {
+        eprintln!("warning: {w}");
+    }
+    // Fails only when the pool already exists (it does not at start-up).
+    let _ = rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build_global();
+    Ok(())
+}
+
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> Result<ExitCode> {
+    if !matches!(cli.command, Command::Run(_)) {
+        fit_global_pool()?;
+    }
     match cli.command {
         Command::Gen {
             out,
