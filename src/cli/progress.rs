@@ -8,18 +8,13 @@
 use std::io::IsTerminal;
 use std::sync::Arc;
 
-use deformlab::solve::progress::{install, Heartbeat, ProgressSink, SinkGuard};
+use deformlab::solve::progress::{install, step_message, Heartbeat, ProgressSink, SinkGuard};
 
 struct Spinner(indicatif::ProgressBar);
 
 impl ProgressSink for Spinner {
     fn update(&self, step: &str, done: usize, total: usize) {
-        let msg = if total > 0 {
-            format!("{step} {done}/{total}")
-        } else {
-            format!("{step} {done}")
-        };
-        self.0.set_message(msg);
+        self.0.set_message(step_message(step, done, total));
     }
 }
 

@@ -303,11 +303,7 @@ impl crate::solve::progress::ProgressSink for StepSink {
     fn update(&self, step: &str, done: usize, total: usize) {
         ROW_BAR.with(|b| {
             if let Some(bar) = &*b.borrow() {
-                bar.set_message(if total > 0 {
-                    format!("{step} {done}/{total}")
-                } else {
-                    format!("{step} {done}")
-                });
+                bar.set_message(crate::solve::progress::step_message(step, done, total));
             }
         });
     }

@@ -93,13 +93,19 @@ struct Beat {
     wake: std::sync::Condvar,
 }
 
+/// The text of a progress step: `step done/total`, or `step done` when the
+/// total is unknown (0). Used by every sink (bar, spinner, heartbeat).
+pub fn step_message(step: &str, done: usize, total: usize) -> String {
+    if total > 0 {
+        format!("{step} {done}/{total}")
+    } else {
+        format!("{step} {done}")
+    }
+}
+
 impl ProgressSink for Beat {
     fn update(&self, step: &str, done: usize, total: usize) {
-        let msg = if total > 0 {
-            format!("{step} {done}/{total}")
-        } else {
-            format!("{step} {done}")
-        };
+        let msg = step_message(step, done, total);
         if let Ok(mut s) = self.state.lock() {
             s.0 = Some(msg);
         }
