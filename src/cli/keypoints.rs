@@ -350,17 +350,33 @@ pub fn create_dir(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))
 }
 
-/// The output folder `--out DIR`, made before anything is computed: an
-/// existing file of that name, or a path that cannot be made into a folder,
+/// The output folder `--out DIR`, checked before anything is computed (it
+/// is made only when the outputs are written, so a refused command leaves
+/// nothing behind): an existing file of that name, or a path under a file,
 /// is refused at once instead of after the computation.
 pub fn prepare_out_dir(dir: &Path) -> Result<()> {
-    match std::fs::metadata(dir) {
-        Ok(m) if m.is_dir() => Ok(()),
-        Ok(_) => Err(Error::invalid(format!(
-            "--out {}: a file of that name exists; --out names a folder",
-            dir.display()
-        ))),
-        Err(_) => create_dir(dir),
+    let mut p = dir;
+    loop {
+        match std::fs::metadata(p) {
+            Ok(m) if m.is_dir() => return Ok(()),
+            Ok(_) if p == dir => {
+                return Err(Error::invalid(format!(
+                    "--out {}: a file of that name exists; --out names a folder",
+                    dir.display()
+                )))
+            }
+            Ok(_) => {
+                return Err(Error::invalid(format!(
+                    "--out {}: {} is a file, so the folder cannot be made",
+                    dir.display(),
+                    p.display()
+                )))
+            }
+            Err(_) => match p.parent() {
+                Some(q) if !q.as_os_str().is_empty() => p = q,
+                _ => return Ok(()),
+            },
+        }
     }
 }
 
