@@ -93,7 +93,6 @@ fn results_folder(dir: &Path) {
         config: serde_json::to_value(&loaded.config).unwrap(),
         seed: 0,
         crate_version: "test".into(),
-        git_revision: "test".into(),
         dataset: "hand-written".into(),
         n_cases: 3,
         cases: Vec::new(),
@@ -101,8 +100,8 @@ fn results_folder(dir: &Path) {
         shards: None,
         results_stored: 15,
         results_failed: 1,
-        method_seconds: Vec::new(),
-        invocations: Vec::new(),
+        repairs: Vec::new(),
+        mesh_defects: Vec::new(),
     };
     write(
         dir,

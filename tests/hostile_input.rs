@@ -329,10 +329,8 @@ fn h04_command_line_numbers() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("--threads 100000 capped to"), "{err}");
-    let manifest: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("threads/manifest.json")).unwrap())
-            .unwrap();
-    let used = manifest["invocations"][0]["threads"].as_u64().unwrap() as usize;
+    let log = common::runs(&out.join("threads"));
+    let used = log["invocations"][0]["threads"].as_u64().unwrap() as usize;
     assert!(
         (1..=deformlab::solve::max_threads().min(256)).contains(&used),
         "{used}"

@@ -861,7 +861,7 @@ fn run_warns_records_refuses_and_repairs() {
     let dir = d.path().join("plain/defects");
     let m: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("manifest.json")).unwrap()).unwrap();
-    let notes = &m["invocations"][0]["mesh_defects"];
+    let notes = &m["mesh_defects"];
     assert_eq!(notes[0]["file"], "tr_reg_000.ply", "{notes}");
     assert_eq!(notes[0]["kind"], "duplicate_faces");
     assert_eq!(notes[0]["count"], 2);

@@ -691,7 +691,11 @@ def load_results(folder: Union[str, os.PathLike]) -> Dict[str, Any]:
     """Read a results folder (``deformlab run``'s ``ROOT/<name>/``) into pandas.
 
     Returns ``{"cases": DataFrame, "summary": DataFrame, "curves": DataFrame,
-    "manifest": dict}`` (a table missing from the folder is ``None``). Needs
+    "manifest": dict, "timings": DataFrame, "timing_summary": DataFrame,
+    "runs": dict}`` (a table missing from the folder is ``None``). The
+    timings (``seconds_*`` columns per case and summarised) and the log of
+    invocations (``runs``) are the volatile files of ``timings/``: they
+    differ between two runs of one config, everything else does not. Needs
     pandas (``pip install deformlab[results]``): ``ImportError`` otherwise.
     """
     import json
@@ -713,6 +717,16 @@ def load_results(folder: Union[str, os.PathLike]) -> Dict[str, Any]:
             out["manifest"] = json.load(fh)
     else:
         out["manifest"] = None
+    timings = os.path.join(folder, "timings")
+    for key, name in (("timings", "cases.csv"), ("timing_summary", "summary.csv")):
+        p = os.path.join(timings, name)
+        out[key] = pd.read_csv(p) if os.path.exists(p) else None
+    p = os.path.join(timings, "runs.json")
+    if os.path.exists(p):
+        with open(p) as fh:
+            out["runs"] = json.load(fh)
+    else:
+        out["runs"] = None
     if all(out[k] is None for k in ("cases", "summary", "curves", "manifest")):
         raise ValueError(f"folder: {folder} holds no results (no cases.csv, summary.csv, curves.csv nor manifest.json)")
     return out

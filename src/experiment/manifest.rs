@@ -1,5 +1,6 @@
 //! `manifest.json` of a results folder: the config, its hash, the cases,
-//! the shards and every invocation of `run` on the folder.
+//! the shards, the mesh defects; and `timings/runs.json`, the volatile
+//! record of every invocation of `run` on the folder.
 
 use std::path::Path;
 
@@ -34,7 +35,8 @@ impl Shard {
     }
 }
 
-/// One invocation of `run` on a folder, as recorded in manifest.json.
+/// One invocation of `run` on a folder, as recorded in
+/// `timings/runs.json` ([`RunLog`]).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Invocation {
     pub started_unix: u64,
@@ -47,21 +49,41 @@ pub struct Invocation {
     pub computed: usize,
     /// Results found already stored (resumed).
     pub reused: usize,
-    /// Meshes the dataset repaired at load during this invocation, one line
-    /// each: windings adopted from the subject
-    /// ([`super::dataset::WindingRepair`]) and, with `[dataset] repair`,
-    /// dropped faces and reversed windings (`FILE: repaired: …`).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub repairs: Vec<String>,
-    /// Result-changing defects of the meshes served during this invocation
-    /// (after any repair), one entry per file and kind.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub mesh_defects: Vec<DefectNote>,
+}
+
+/// `timings/runs.json`: the volatile record of a results folder (see
+/// [`super::store::TIMINGS_DIR`]): every invocation of `run` (or `merge`)
+/// on it and the seconds per method over the stored results.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct RunLog {
+    /// Sum of `seconds_total` per method over the stored results.
+    pub method_seconds: Vec<(String, f64)>,
+    pub invocations: Vec<Invocation>,
+}
+
+/// Reads `timings/runs.json` of a results folder: `None` when there is
+/// none or it does not parse (it is replaced), an error for a link or a
+/// special file in its place.
+pub fn read_run_log(dir: &Path) -> Result<Option<RunLog>> {
+    let path = dir.join(super::store::TIMINGS_DIR).join("runs.json");
+    match std::fs::symlink_metadata(&path) {
+        Err(_) => Ok(None),
+        Ok(_) => Ok(serde_json::from_str(&super::files::read_regular(&path)?).ok()),
+    }
+}
+
+/// Writes `timings/runs.json` (atomically).
+pub fn write_run_log(dir: &Path, log: &RunLog) -> Result<()> {
+    let bytes = serde_json::to_vec_pretty(log)
+        .map_err(|e| Error::invalid(format!("run log to JSON: {e}")))?;
+    let timings = super::store::own_subdir(dir, super::store::TIMINGS_DIR)?;
+    write_file(&timings.join("runs.json"), &bytes, true)?;
+    Ok(())
 }
 
 /// One kind of result-changing defect in one mesh file, as recorded in
 /// manifest.json (`kind`: [`crate::mesh::validate::DefectKind::name`]).
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 pub struct DefectNote {
     pub subject: String,
     pub pose: String,
@@ -118,7 +140,6 @@ pub struct Manifest {
     pub config: serde_json::Value,
     pub seed: u64,
     pub crate_version: String,
-    pub git_revision: String,
     pub dataset: String,
     pub n_cases: usize,
     pub cases: Vec<Case>,
@@ -127,9 +148,16 @@ pub struct Manifest {
     pub shards: Option<Vec<Shard>>,
     pub results_stored: usize,
     pub results_failed: usize,
-    /// Sum of `seconds_total` per method over the stored results.
-    pub method_seconds: Vec<(String, f64)>,
-    pub invocations: Vec<Invocation>,
+    /// Meshes the dataset repaired at load, one line each, over every
+    /// invocation (sorted): windings adopted from the subject
+    /// ([`super::dataset::WindingRepair`]) and, with `[dataset] repair`,
+    /// dropped faces and reversed windings (`FILE: repaired: …`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub repairs: Vec<String>,
+    /// Result-changing defects of the meshes served (after any repair), one
+    /// entry per file and kind, over every invocation (sorted).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub mesh_defects: Vec<DefectNote>,
 }
 
 /// Writes manifest.json (atomically).

@@ -702,38 +702,44 @@ fn record_run(
 ) -> Result<()> {
     let name = &l.config.name;
     let git = super::store::git_revision(&std::env::current_dir().unwrap_or_default());
-    // The earlier invocations (a manifest that does not parse is replaced;
-    // a link or a special file in its place is refused).
+    // The earlier record (a manifest that does not parse is replaced; a
+    // link or a special file in its place is refused).
     let manifest_path = dir.join("manifest.json");
     let prev: Option<Manifest> = match std::fs::symlink_metadata(&manifest_path) {
         Err(_) => None,
         Ok(_) => serde_json::from_str(&super::files::read_regular(&manifest_path)?).ok(),
     };
-    let mut invocations = prev
-        .as_ref()
-        .map(|p| p.invocations.clone())
-        .unwrap_or_default();
-    invocations.push(Invocation {
+    let mut log = super::manifest::read_run_log(dir)?.unwrap_or_default();
+    log.invocations.push(Invocation {
         started_unix: f.started,
         wall_seconds: f.wall_seconds,
         threads: opts.threads,
         shard: opts.shard,
         crate_version: env!("CARGO_PKG_VERSION").to_string(),
-        git_revision: git.clone(),
+        git_revision: git,
         computed: f.computed,
         reused: f.reused,
-        repairs: col
-            .repairs()
-            .iter()
-            .map(|r| r.to_string())
-            .chain(
-                col.checks()
-                    .iter()
-                    .filter_map(|c| Some(format!("{}: repaired: {}", c.file, c.repair.as_ref()?))),
-            )
-            .collect(),
-        mesh_defects: DefectNote::of(&col.checks()),
     });
+    log.method_seconds = method_seconds(f.results, f.order);
+    let mut repairs: Vec<String> = col
+        .repairs()
+        .iter()
+        .map(|r| r.to_string())
+        .chain(
+            col.checks()
+                .iter()
+                .filter_map(|c| Some(format!("{}: repaired: {}", c.file, c.repair.as_ref()?))),
+        )
+        .collect();
+    let mut mesh_defects = DefectNote::of(&col.checks());
+    if let Some(p) = &prev {
+        repairs.extend(p.repairs.iter().cloned());
+        mesh_defects.extend(p.mesh_defects.iter().cloned());
+    }
+    repairs.sort();
+    repairs.dedup();
+    mesh_defects.sort();
+    mesh_defects.dedup();
     let shards = match opts.shard {
         None => None,
         Some(s) => {
@@ -759,7 +765,6 @@ fn record_run(
             .map_err(|e| Error::invalid(format!("config to JSON: {e}")))?,
         seed: l.config.seed,
         crate_version: env!("CARGO_PKG_VERSION").to_string(),
-        git_revision: git,
         dataset: col.description.clone(),
         n_cases: cases.len(),
         cases: cases.to_vec(),
@@ -767,10 +772,11 @@ fn record_run(
         shards,
         results_stored: f.results.len(),
         results_failed: f.failed,
-        method_seconds: method_seconds(f.results, f.order),
-        invocations,
+        repairs,
+        mesh_defects,
     };
-    write_manifest(dir, &manifest)
+    write_manifest(dir, &manifest)?;
+    super::manifest::write_run_log(dir, &log)
 }
 
 /// Runs method `m` on `case` and returns its row: the identification
@@ -946,19 +952,33 @@ pub fn merge(inputs: &[PathBuf], out: &Path, plots: bool) -> Result<RunSummary> 
         .iter()
         .filter(|r| r.cells.get("status").is_some_and(|s| s != "ok"))
         .count();
-    let mut invocations: Vec<Invocation> = Vec::new();
-    for m in &manifests {
-        invocations.extend(m.invocations.iter().cloned());
+    let mut log = super::manifest::RunLog {
+        method_seconds: method_seconds(&results, &first.methods),
+        invocations: Vec::new(),
+    };
+    let mut repairs: Vec<String> = Vec::new();
+    let mut mesh_defects: Vec<DefectNote> = Vec::new();
+    for (m, d) in manifests.iter().zip(inputs) {
+        if let Some(l) = super::manifest::read_run_log(d)? {
+            log.invocations.extend(l.invocations);
+        }
+        repairs.extend(m.repairs.iter().cloned());
+        mesh_defects.extend(m.mesh_defects.iter().cloned());
     }
+    repairs.sort();
+    repairs.dedup();
+    mesh_defects.sort();
+    mesh_defects.dedup();
     let manifest = Manifest {
         shards: None,
         results_stored: results.len(),
         results_failed: failed,
-        method_seconds: method_seconds(&results, &first.methods),
-        invocations,
+        repairs,
+        mesh_defects,
         ..first.clone()
     };
     write_manifest(out, &manifest)?;
+    super::manifest::write_run_log(out, &log)?;
     let complete = results.len() >= first.n_cases * first.methods.len();
     if plots && complete {
         for w in super::plots::make_plots(out)? {

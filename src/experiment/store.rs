@@ -8,13 +8,20 @@
 //! DIR/cases/<case>/<method>.json   one finished case × method (atomic, never overwritten)
 //! DIR/meshes/<case>/...    meshes saved for renders: source, deformed, target, truth, and
 //!                          the results of the first method of each group ([outputs] render_*)
-//! DIR/manifest.json        config, seed, crate version, git revision, threads, timings
+//! DIR/manifest.json        config, seed, crate version, cases, methods, shards, counts
 //! DIR/cases.csv            one row per case × method, rebuilt from cases/ in case order;
-//!                          the columns of CASE_COLUMNS that hold a value in some row
+//!                          the columns of CASE_COLUMNS that hold a value in some row,
+//!                          timings aside
 //! DIR/curves.csv           case,method,curve,x,y (long format)
-//! DIR/summary.csv          method,group,metric,n,mean,std,min,median,max
+//! DIR/summary.csv          method,group,metric,n,mean,std,min,median,max (timings aside)
 //! DIR/plots/               PNG + SVG + PDF charts, PNG renders; tables as CSV, Markdown, LaTeX
+//! DIR/timings/             the volatile files (TIMINGS_DIR): cases.csv and summary.csv of
+//!                          the seconds_* columns, runs.json (every invocation: start, wall
+//!                          time, threads, revision), plots/ (figures showing timings)
 //! ```
+//!
+//! Everything outside `timings/` is byte-identical when a config is run
+//! again (on any thread count, resumed or sharded and merged).
 //!
 //! **Atomicity.** A result file is written to a unique temporary name in the
 //! same folder and then hard-linked to its final name, which fails if the
@@ -769,11 +776,21 @@ impl Store {
         Ok(out)
     }
 
-    /// Rebuilds cases.csv, curves.csv and summary.csv from the stored results.
+    /// Rebuilds cases.csv, curves.csv and summary.csv from the stored
+    /// results, and their timings (the only values that differ between two
+    /// runs of one config) apart: timings/cases.csv and timings/summary.csv
+    /// ([`TIMINGS_DIR`]).
     pub fn write_tables(&self, results: &[CaseResult]) -> Result<()> {
         write_file(&self.dir.join("cases.csv"), &cases_csv(results)?, true)?;
         write_file(&self.dir.join("curves.csv"), &curves_csv(results)?, true)?;
         write_file(&self.dir.join("summary.csv"), &summary_csv(results)?, true)?;
+        let timings = own_subdir(&self.dir, TIMINGS_DIR)?;
+        write_file(&timings.join("cases.csv"), &timings_csv(results)?, true)?;
+        write_file(
+            &timings.join("summary.csv"),
+            &timings_summary_csv(results)?,
+            true,
+        )?;
         Ok(())
     }
 }
@@ -897,9 +914,52 @@ pub fn case_columns(results: &[CaseResult]) -> Vec<&'static str> {
 /// absent column is an empty cell in every row, so tables of older runs
 /// (every column) and of runs with other methods read alike.
 pub fn cases_csv(results: &[CaseResult]) -> Result<Vec<u8>> {
-    let columns = case_columns(results);
+    let columns: Vec<&str> = case_columns(results)
+        .into_iter()
+        .filter(|c| !is_timing(c))
+        .collect();
+    table_csv(results, &columns)
+}
+
+/// `timings/cases.csv` bytes: the [`ID_COLUMNS`] and the timing columns
+/// ([`is_timing`]) of [`case_columns`], one row per result.
+pub fn timings_csv(results: &[CaseResult]) -> Result<Vec<u8>> {
+    let columns: Vec<&str> = case_columns(results)
+        .into_iter()
+        .filter(|c| ID_COLUMNS.contains(c) || is_timing(c))
+        .collect();
+    table_csv(results, &columns)
+}
+
+/// The folder of a results folder that holds its volatile files: timings
+/// per case and summarised, the log of invocations (when, how long, which
+/// revision) and the figures that show timings. Everything else a run
+/// writes is the same, byte for byte, when the run is repeated.
+pub const TIMINGS_DIR: &str = "timings";
+
+/// `dir/name`, made if missing; a symbolic link or a file there is
+/// refused (a link planted in a results folder would send the tables
+/// elsewhere).
+pub fn own_subdir(dir: &Path, name: &str) -> Result<PathBuf> {
+    let sub = dir.join(name);
+    match std::fs::symlink_metadata(&sub) {
+        Ok(m) if m.is_dir() => Ok(sub),
+        Ok(_) => Err(Error::parse(
+            &sub,
+            "results folder",
+            "is not a folder (a file or a symbolic link); the run writes its own folder here \
+             and follows no link",
+        )),
+        Err(_) => {
+            std::fs::create_dir_all(&sub).map_err(|e| Error::io(&sub, e))?;
+            Ok(sub)
+        }
+    }
+}
+
+fn table_csv(results: &[CaseResult], columns: &[&str]) -> Result<Vec<u8>> {
     let mut w = csv::Writer::from_writer(Vec::new());
-    w.write_record(&columns).map_err(csv_err)?;
+    w.write_record(columns).map_err(csv_err)?;
     for r in results {
         w.write_record(
             columns
@@ -974,6 +1034,15 @@ pub fn describe(v: &[f64]) -> (f64, f64, f64, f64, f64) {
 /// `summary.csv` bytes: per method (in order of first appearance) and numeric
 /// column, statistics over the cases where the cell is a number.
 pub fn summary_csv(results: &[CaseResult]) -> Result<Vec<u8>> {
+    summary_of(results, |c| !is_timing(c))
+}
+
+/// `timings/summary.csv` bytes: [`summary_csv`] of the timing columns.
+pub fn timings_summary_csv(results: &[CaseResult]) -> Result<Vec<u8>> {
+    summary_of(results, is_timing)
+}
+
+fn summary_of(results: &[CaseResult], keep: impl Fn(&str) -> bool) -> Result<Vec<u8>> {
     let mut w = csv::Writer::from_writer(Vec::new());
     w.write_record([
         "method", "group", "metric", "n", "n_failed", "mean", "std", "min", "median", "max",
@@ -992,7 +1061,7 @@ pub fn summary_csv(results: &[CaseResult]) -> Result<Vec<u8>> {
             .iter()
             .filter(|r| r.cells.get("status").is_some_and(|s| s != "ok"))
             .count();
-        for col in summary_columns() {
+        for col in summary_columns().filter(|c| keep(c)) {
             let v: Vec<f64> = rows
                 .iter()
                 .filter_map(|r| r.cells.get(col).and_then(|s| s.parse::<f64>().ok()))

@@ -147,6 +147,16 @@ pub fn stdout_ok(out: &Output) -> String {
     text
 }
 
+/// `dir/timings/runs.json` of a results folder: the invocations (start,
+/// wall time, threads, revision, computed, reused) and seconds per method.
+pub fn runs(dir: &Path) -> serde_json::Value {
+    let p = dir.join("timings/runs.json");
+    serde_json::from_str(
+        &std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display())),
+    )
+    .unwrap()
+}
+
 /// A fresh temporary folder, removed when dropped.
 pub fn tmp() -> tempfile::TempDir {
     tempfile::tempdir().expect("temp dir")
@@ -207,12 +217,14 @@ pub fn csv_without_timing(path: &Path) -> Vec<Vec<String>> {
     without_timing(path, true).0
 }
 
-/// `dir/cases.csv` without its timing columns (`seconds_*`), as text; it
-/// must have some.
+/// `dir/cases.csv` as text, byte for byte: it holds no timing column
+/// (`seconds_*`); they are in `dir/timings/cases.csv`, which must have some.
 pub fn cases_without_timing(dir: &Path) -> String {
-    let (rows, dropped) = without_timing(&dir.join("cases.csv"), false);
-    assert!(dropped > 0, "timing columns expected");
-    rows.iter().map(|r| r.join(",") + "\n").collect()
+    let (_, dropped) = without_timing(&dir.join("cases.csv"), false);
+    assert_eq!(dropped, 0, "cases.csv holds timing columns");
+    let (_, timings) = without_timing(&dir.join("timings/cases.csv"), false);
+    assert!(timings > 0, "timing columns expected in timings/cases.csv");
+    std::fs::read_to_string(dir.join("cases.csv")).unwrap()
 }
 
 /// The rows of a CSV (header first) without its `seconds_*` columns (and,

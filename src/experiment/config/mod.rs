@@ -675,6 +675,18 @@ pub struct PlotSpec {
 }
 
 impl PlotSpec {
+    /// Whether the figure shows timings (a `timing` chart, or a timing
+    /// column among its metrics): such a figure differs between two runs of
+    /// one config, so it is written with the volatile files
+    /// (`timings/plots/`, [`crate::experiment::store::TIMINGS_DIR`]).
+    pub fn shows_timing(&self) -> bool {
+        use crate::experiment::store::is_timing;
+        self.kind == PlotKind::Timing
+            || self.metrics.iter().any(|m| is_timing(m))
+            || self.metric.as_deref().is_some_and(is_timing)
+            || self.lead.iter().any(|m| is_timing(m))
+    }
+
     /// A plot of `kind` over `metrics`, every other key at its default.
     pub fn new(kind: PlotKind, metrics: &[&str]) -> Self {
         PlotSpec {

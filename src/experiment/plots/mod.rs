@@ -62,6 +62,7 @@ use self::renders::{clusters, panels};
 use self::tables::{pivot, table};
 use super::config::{Config, LoadedConfig, PlotKind, PlotSpec, TitleSpec};
 use super::manifest::read_manifest;
+use super::store::{own_subdir, TIMINGS_DIR};
 use crate::plot::RenderOptions;
 use crate::{Error, Result};
 
@@ -88,6 +89,45 @@ fn read_csv(path: &Path) -> Result<Vec<Row>> {
         );
     }
     Ok(out)
+}
+
+/// The rows of `cases.csv` with the timing cells of `timings/cases.csv`
+/// (matched by case and method) added; rows stay as they are when there is
+/// no timings file (a folder of an older run keeps its timings in
+/// `cases.csv`).
+fn with_timings(mut rows: Vec<Row>, dir: &Path) -> Result<Vec<Row>> {
+    let path = dir.join(TIMINGS_DIR).join("cases.csv");
+    if std::fs::symlink_metadata(&path).is_err() {
+        return Ok(rows);
+    }
+    let key = |r: &Row| {
+        (
+            r.get("case_id").cloned().unwrap_or_default(),
+            r.get("method").cloned().unwrap_or_default(),
+        )
+    };
+    let timings: std::collections::BTreeMap<(String, String), Row> =
+        read_csv(&path)?.into_iter().map(|r| (key(&r), r)).collect();
+    for r in &mut rows {
+        if let Some(t) = timings.get(&key(r)) {
+            for (k, v) in t {
+                if crate::experiment::store::is_timing(k) {
+                    r.insert(k.clone(), v.clone());
+                }
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// Whether any figure of a config's `[outputs]` shows timings.
+fn specs_show_timing(config: &Config) -> bool {
+    let specs = if config.outputs.plots.is_empty() {
+        default_plots(config)
+    } else {
+        config.outputs.plots.clone()
+    };
+    specs.iter().any(PlotSpec::shows_timing)
 }
 
 fn f(row: &Row, col: &str) -> Option<f64> {
@@ -210,10 +250,16 @@ impl Ctx {
             .collect()
     }
 
+    /// The output path (without extension) of a figure: `plots/NAME`, or
+    /// `timings/plots/NAME` for a figure that shows timings (volatile,
+    /// [`PlotSpec::shows_timing`]).
     fn stem(&self, spec: &PlotSpec, default: &str) -> PathBuf {
-        self.dir
-            .join("plots")
-            .join(spec.file.clone().unwrap_or_else(|| default.to_string()))
+        let dir = if spec.shows_timing() {
+            self.dir.join(TIMINGS_DIR).join("plots")
+        } else {
+            self.dir.join("plots")
+        };
+        dir.join(spec.file.clone().unwrap_or_else(|| default.to_string()))
     }
 
     /// The title of a plot: `default()` unless the plot's `title` or
@@ -330,7 +376,7 @@ pub fn make_plots_with(dir: &Path, config: Option<&LoadedConfig>) -> Result<Vec<
             l.config.clone()
         }
     };
-    let rows = read_csv(&dir.join("cases.csv"))?;
+    let rows = with_timings(read_csv(&dir.join("cases.csv"))?, dir)?;
     let curves = read_csv(&dir.join("curves.csv"))?;
     let mut groups: Vec<(String, Vec<String>)> = Vec::new();
     for m in &config.methods {
@@ -389,7 +435,10 @@ pub fn make_plots_with(dir: &Path, config: Option<&LoadedConfig>) -> Result<Vec<
                 .or_insert_with(|| l.clone());
         }
     }
-    std::fs::create_dir_all(dir.join("plots")).map_err(|e| Error::io(dir.join("plots"), e))?;
+    own_subdir(dir, "plots")?;
+    if specs_show_timing(&config) {
+        own_subdir(&own_subdir(dir, TIMINGS_DIR)?, "plots")?;
+    }
     let mut ctx = Ctx {
         dir: dir.to_path_buf(),
         config,
