@@ -174,11 +174,12 @@ fn summary(experiment: &str) -> std::collections::HashMap<(String, String), (f64
         .collect()
 }
 
-/// The README with every run of whitespace (line breaks, indentation) as
-/// one space, so that a sentence can be looked up across its line wraps.
+/// The results page (`docs/results.md`, linked from the README) with
+/// every run of whitespace (line breaks, indentation) as one space, so that
+/// a sentence can be looked up across its line wraps.
 fn readme_flat() -> String {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let text = std::fs::read_to_string(root.join("README.md")).unwrap();
+    let text = std::fs::read_to_string(root.join("docs/results.md")).unwrap();
     text.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
@@ -186,7 +187,7 @@ fn assert_states(readme: &str, expected: &str) {
     let expected = expected.split_whitespace().collect::<Vec<_>>().join(" ");
     assert!(
         readme.contains(&expected),
-        "README does not state the committed results: expected the text\n  {expected}\n\
+        "docs/results.md does not state the committed results: expected the text\n  {expected}\n\
          (numbers from results/*/summary.csv; regenerate the README's figures)"
     );
 }

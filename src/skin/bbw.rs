@@ -145,6 +145,9 @@ pub enum WeightMode {
     /// Bounds per handle (active set), then rows normalised to sum to one.
     /// The library's default ([`BbwOptions::default`]).
     #[default]
+    #[value(
+        help = "Bounds per handle (active set), then rows normalised to sum to one (the default)"
+    )]
     PerHandle,
     /// Biharmonic weights with the interpolation constraints only (ablation);
     /// they sum to one but may leave [0, 1].

@@ -121,6 +121,10 @@ pub enum SelectionMode {
     /// k-means; the best [`FastOptions::verify_top`] of every step ranked by
     /// the exact evaluation (see the module docs).
     #[default]
+    #[value(
+        help = "Candidates screened with Green's-function weights and subsampled k-means; the \
+                best few of every step (verify_top) ranked by the exact evaluation"
+    )]
     Fast,
 }
 

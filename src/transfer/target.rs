@@ -372,12 +372,21 @@ pub enum TargetWeights {
     /// The weights the transforms were fitted with on the source: bounded
     /// biharmonic weights in both selection modes ([`TargetWeights::resolve`]).
     #[default]
+    #[value(
+        help = "The weights the transforms were fitted with on the source: bounded biharmonic \
+                weights in both selection modes"
+    )]
     Auto,
     /// Bounded biharmonic weights with [`TransferOptions::weights`] (BDT Eq. 1).
+    #[value(help = "Bounded biharmonic weights of the --weights problem (BDT Eq. 1)")]
     Bounded,
     /// Unbounded biharmonic weights made admissible by
     /// [`TransferOptions::fast_bounds`] (the weights of
     /// [`crate::transfer::SelectionMode::Fast`]).
+    #[value(
+        help = "Unbounded biharmonic weights made admissible (by default clamped to [0, 1] and \
+                renormalised; the screening weights of fast selection)"
+    )]
     Fast,
 }
 
