@@ -160,3 +160,128 @@ fn help_texts_have_no_rustdoc_syntax() {
         }
     }
 }
+
+/// The keys a config table accepts, as the parser lists them when it meets
+/// an unknown one (`expected one of `a`, `b``), so this list is the code's.
+fn accepted(text: &str) -> Vec<String> {
+    let e = match deformlab::experiment::parse_config(text, Path::new("probe.toml")) {
+        Ok(_) => panic!("the probe was accepted:\n{text}"),
+        Err(e) => e.to_string(),
+    };
+    let list = e
+        .split("expected one of ")
+        .nth(1)
+        .or_else(|| e.split("expected ").nth(1))
+        .unwrap_or_else(|| panic!("no key list in {e}"));
+    list.split('`')
+        .skip(1)
+        .step_by(2)
+        .map(str::to_string)
+        .collect()
+}
+
+/// Every key of every config table and every plot kind is described in the
+/// configuration reference (`experiments/README.md`), in backticks: the
+/// keys come from the parser itself.
+#[test]
+fn every_config_key_and_plot_kind_is_in_the_reference() {
+    let reference = read(&root().join("experiments/README.md"));
+    let methods = read(&root().join("docs/methods.md"));
+    let method = "[[methods]]\nname = \"m\"\nkind = \"bdt\"\n";
+    let probes: Vec<(&str, &str, String)> = vec![
+        ("top level", "", format!("zzz = 1\n{method}")),
+        (
+            "[dataset]",
+            "dataset.",
+            format!("[dataset]\nzzz = 1\n{method}"),
+        ),
+        (
+            "[dataset.synthetic]",
+            "dataset.synthetic.",
+            format!("[dataset.synthetic]\nzzz = 1\n{method}"),
+        ),
+        (
+            "[dataset.faust]",
+            "dataset.faust.",
+            format!("[dataset.faust]\nzzz = 1\n{method}"),
+        ),
+        (
+            "[dataset.tosca]",
+            "dataset.tosca.",
+            format!("[dataset.tosca]\nzzz = 1\n{method}"),
+        ),
+        (
+            "[dataset.manifest]",
+            "dataset.manifest.",
+            format!("[dataset.manifest]\nzzz = 1\n{method}"),
+        ),
+        ("[cases]", "cases.", format!("[cases]\nzzz = 1\n{method}")),
+        (
+            "[defaults]",
+            "defaults.",
+            format!("[defaults]\nzzz = 1\n{method}"),
+        ),
+        (
+            "[metrics]",
+            "metrics.",
+            format!("[metrics]\nzzz = 1\n{method}"),
+        ),
+        (
+            "[outputs]",
+            "outputs.",
+            format!("[outputs]\nzzz = 1\n{method}"),
+        ),
+        ("[[methods]]", "methods.", format!("{method}zzz = 1\n")),
+        (
+            "[methods.fbt]",
+            "methods.fbt.",
+            format!("{method}[methods.fbt]\nzzz = 1\n"),
+        ),
+        (
+            "[[outputs.plots]]",
+            "outputs.plots.",
+            format!("{method}[[outputs.plots]]\nkind = \"bars\"\nzzz = 1\n"),
+        ),
+        (
+            "plot kinds",
+            "",
+            format!("{method}[[outputs.plots]]\nkind = \"zzz\"\n"),
+        ),
+        (
+            "method kinds",
+            "",
+            "[[methods]]\nname = \"m\"\nkind = \"zzz\"\n".to_string(),
+        ),
+    ];
+    let mut missing = Vec::new();
+    for (table, prefix, text) in &probes {
+        let keys = accepted(text);
+        assert!(!keys.is_empty(), "{table}: no keys found");
+        for k in keys {
+            // Named in backticks, or set in an example (`k = …` in a
+            // TOML block), or a table header (`[k]`, `[a.k]`).
+            let named = reference.contains(&format!("`{k}`"))
+                || reference.contains(&format!("`{prefix}{k}`"))
+                || reference.contains(&format!("`{k} ="))
+                || reference.lines().any(|l| {
+                    let t = l.trim_start_matches(['#', ' ']);
+                    t.starts_with(&format!("{k} = "))
+                        || t.contains(&format!("[{k}]"))
+                        || t.contains(&format!(".{k}]"))
+                        || t.contains(&format!("[{k}."))
+                });
+            // Method kinds are the registry's page (generated, checked above).
+            let named = named || (*table == "method kinds" && methods.contains(&format!("`{k}`")));
+            // A method may set any pipeline key of [defaults] for itself.
+            let named = named
+                || (*table == "[[methods]]" && reference.contains(&format!("`defaults.{k}`")));
+            if !named {
+                missing.push(format!("{table} {k}"));
+            }
+        }
+    }
+    assert!(
+        missing.is_empty(),
+        "experiments/README.md does not describe: {missing:?}"
+    );
+}
