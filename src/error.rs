@@ -25,12 +25,13 @@ pub enum Error {
         location: String,
         message: String,
     },
-    /// Input values (not from a file) violate a precondition.
-    #[error("invalid input: {0}")]
+    /// Input values (not from a file) violate a precondition. Shown as the
+    /// sentence alone: the kind is for programs (`matches!`), not users.
+    #[error("{0}")]
     InvalidInput(String),
     /// A numerical method failed (singular system, no convergence, failed
-    /// residual check).
-    #[error("numerical failure: {0}")]
+    /// residual check). Shown as the sentence alone.
+    #[error("{0}")]
     Numerical(String),
 }
 

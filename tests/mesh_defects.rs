@@ -341,7 +341,7 @@ fn lists_are_capped_and_display_is_readable() {
     for needle in [
         "441 vertices",
         "faces with repeated vertex",
-        "boundary edges",
+        "boundary (not a defect): 80 edges in 1 loop",
         "80",
         "800 801 802 803 804 805 806 807 808 809 …",
         "…",

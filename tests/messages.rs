@@ -243,3 +243,59 @@ fn link_loops_are_not_called_missing() {
         "{err}"
     );
 }
+
+/// An open surface is valid input: `inspect` reports its boundary as a
+/// boundary, not as a defect, and counts the file among those without
+/// defects (before: "has defects", and "1 with defects").
+#[test]
+fn open_surfaces_are_not_defective() {
+    let dir = tmp();
+    let disk = Mesh::new(
+        vec![
+            deformlab::Point::new(0.0, 0.0, 0.0),
+            deformlab::Point::new(1.0, 0.0, 0.0),
+            deformlab::Point::new(0.0, 1.0, 0.0),
+            deformlab::Point::new(-1.0, 0.0, 0.0),
+        ],
+        vec![[0, 1, 2], [0, 2, 3]],
+    )
+    .unwrap();
+    let d = dir.path().join("disk.ply");
+    write_ply(&d, &disk).unwrap();
+    let o = run(&["inspect".to_string(), d.display().to_string()]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{text}");
+    assert!(text.contains("; clean open surface"), "{text}");
+    assert!(
+        text.contains("boundary (not a defect): 4 edges in 1 loop"),
+        "{text}"
+    );
+    assert!(
+        text.contains("1 without any defect, 0 with defects"),
+        "{text}"
+    );
+    let o = run(&["inspect", "--brief", d.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains(": clean open surface\n"), "{text}");
+}
+
+/// Errors are the sentence, without the error kind as a prefix
+/// (`error: invalid input: …`).
+#[test]
+fn messages_carry_no_internal_prefix() {
+    let err = cli_err(
+        &["weights", "no-such-mesh.obj", "--handles", "0"],
+        &["error: "],
+    );
+    for prefix in ["error: invalid input", "error: numerical failure"] {
+        assert!(!err.contains(prefix), "{err}");
+    }
+    let dir = tmp();
+    let a = dir.path().join("a.ply");
+    write_ply(&a, &icosphere(1)).unwrap();
+    let err = cli_err(
+        &["weights", a.to_str().unwrap(), "--handles", "1000"],
+        &["--handles 1000"],
+    );
+    assert!(err.starts_with("error: --handles"), "{err}");
+}

@@ -413,8 +413,14 @@ fn bad_inputs_are_errors() {
     let n = rest.n_vertices();
     let d = RigOptions::default();
     let err = |r: deformlab::Result<Rig>, what: &str| {
-        let e = r.expect_err(what).to_string();
-        assert!(e.contains("invalid input"), "{what}: {e}");
+        let e = r.expect_err(what);
+        assert!(
+            matches!(e, deformlab::Error::InvalidInput(_)),
+            "{what}: {e}"
+        );
+        // Messages are the sentence, without the kind as a prefix.
+        let e = e.to_string();
+        assert!(!e.starts_with("invalid input"), "{what}: {e}");
         e
     };
     let e = err(example_skinning(rest, &[], &d), "no examples");

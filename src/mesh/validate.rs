@@ -198,7 +198,6 @@ impl DefectReport {
             (self.zero_area_faces.count, "zero-area faces"),
             (self.duplicate_faces.count, "duplicate faces"),
             (self.unreferenced_vertices.count, "unreferenced vertices"),
-            (self.boundary_edges.count, "boundary edges"),
             (self.non_manifold_edges.count, "non-manifold edges"),
             (self.non_manifold_vertices.count, "non-manifold vertices"),
             (self.inconsistent_edges.count, "inconsistent-winding edges"),
@@ -214,8 +213,9 @@ impl DefectReport {
                 s.push_str(", ");
                 s.push_str(&defects.join(", "));
             }
-        } else if defects.is_empty() && self.is_clean() {
-            s.push_str(": clean");
+        } else if defects.is_empty() && self.is_clean_ignoring_boundary() {
+            s.push_str(": ");
+            s.push_str(self.status());
         } else if !defects.is_empty() {
             s.push_str(": ");
             s.push_str(&defects.join(", "));
@@ -223,6 +223,22 @@ impl DefectReport {
             s.push_str(": non-orientable component");
         }
         s
+    }
+
+    /// One word for the mesh: `empty (no faces)`, `clean` (a closed,
+    /// consistently wound 2-manifold), `clean open surface` (the same with
+    /// a boundary: valid input, the boundary is not a defect) or `has
+    /// defects`.
+    pub fn status(&self) -> &'static str {
+        if self.n_faces == 0 {
+            "empty (no faces)"
+        } else if self.is_clean() {
+            "clean"
+        } else if self.is_clean_ignoring_boundary() {
+            "clean open surface"
+        } else {
+            "has defects"
+        }
     }
 
     /// Sum of the component genera, when every component has one.
@@ -677,13 +693,7 @@ impl fmt::Display for DefectReport {
             if self.components.len() == 1 { "" } else { "s" },
             self.euler_characteristic,
             self.genus().map_or("—".to_string(), |g| g.to_string()),
-            if self.n_faces == 0 {
-                "empty (no faces)"
-            } else if self.is_clean() {
-                "clean"
-            } else {
-                "has defects"
-            }
+            self.status()
         )?;
         let idx = |i: &usize| i.to_string();
         let edge = |e: &[usize; 2]| format!("{}-{}", e[0], e[1]);
@@ -719,11 +729,6 @@ impl fmt::Display for DefectReport {
                 fmt_list(&self.unreferenced_vertices, idx),
             ),
             (
-                "boundary edges",
-                self.boundary_edges.count,
-                fmt_list(&self.boundary_edges, edge),
-            ),
-            (
                 "non-manifold edges",
                 self.non_manifold_edges.count,
                 fmt_list(&self.non_manifold_edges, edge),
@@ -743,6 +748,16 @@ impl fmt::Display for DefectReport {
         for (name, count, list) in rows {
             writeln!(f, "  {name:<30} {count:>8}  {list}")?;
         }
+        // An open surface is valid input: its boundary is reported as such,
+        // not among the defects.
+        let loops: usize = self.components.iter().map(|c| c.boundary_loops).sum();
+        writeln!(
+            f,
+            "  boundary (not a defect): {} edges in {loops} loop{}  {}",
+            self.boundary_edges.count,
+            if loops == 1 { "" } else { "s" },
+            fmt_list(&self.boundary_edges, edge)
+        )?;
         writeln!(
             f,
             "  {:>4} {:>8} {:>8} {:>8} {:>6} {:>6} {:>8} {:>10} {:>6} {:>5}",
