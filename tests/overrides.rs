@@ -191,6 +191,39 @@ fn sweeps_expand_methods_into_named_variants() {
     assert!(m.contains("sweep.defaults.epsilon.label"), "{m}");
 }
 
+/// A labelled method's sweep variants get labels of their own (label and
+/// swept value), so a table or legend does not show two rows "BDT (ours)";
+/// seed replicates share their group's label.
+#[test]
+fn sweep_variants_have_distinct_labels() {
+    let text = TINY.replace(
+        "name = \"auto\"\nkind = \"bdt\"",
+        "name = \"auto\"\nkind = \"bdt\"\nlabel = \"BDT (ours)\"",
+    );
+    let text = format!("{text}\n[sweep]\nmethods.auto.seed = [1, 2]\n");
+    let l = load(&text, &[], &["methods.auto.epsilon=0.01,0.02"]).unwrap();
+    let labels: Vec<(String, Option<String>)> = l
+        .config
+        .methods
+        .iter()
+        .map(|m| (m.name.clone(), m.label.clone()))
+        .collect();
+    let of = |n: &str| labels.iter().find(|(m, _)| m == n).unwrap().1.clone();
+    assert_eq!(
+        of("auto-seed1-eps0.01").as_deref(),
+        Some("BDT (ours) (epsilon = 0.01)")
+    );
+    assert_eq!(
+        of("auto-seed2-eps0.01").as_deref(),
+        Some("BDT (ours) (epsilon = 0.01)")
+    );
+    assert_eq!(
+        of("auto-seed1-eps0.02").as_deref(),
+        Some("BDT (ours) (epsilon = 0.02)")
+    );
+    assert_eq!(of("tight"), None);
+}
+
 /// `auto-noise.toml` is a sweep that gives the 33 methods of the committed
 /// results, with their names, groups and store key.
 #[test]

@@ -33,6 +33,9 @@
 //! is the method's group (else its name) with the parts of the axes that
 //! have `group = true` — the default, except for seeds (`seed`,
 //! `*_seed`), whose variants are replicates averaged in one group. A
+//! method's `label` becomes the variant's label with those parts
+//! (`BDT (ours) (epsilon = 0.02)`), so legends and tables tell the variants
+//! apart. A
 //! plot's `methods` list naming an expanded method names its variants. A
 //! swept key with a `cases.csv` column (`epsilon`, `n_candidates`, `q`,
 //! `target_noise`, …) gets a line plot of the error against that column
@@ -106,6 +109,22 @@ impl Axis {
             Value::Boolean(b) => format!("{short}-{b}"),
             Value::String(s) => s.clone(),
             other => format!("{short}{other}"),
+        }
+    }
+}
+
+impl Axis {
+    /// The part of a variant's display label for value `j`: the axis's
+    /// `names`, else `key = value` (`epsilon = 0.02`), a string value
+    /// itself.
+    fn label_part(&self, j: usize) -> String {
+        if let Some(n) = &self.names {
+            return n[j].clone();
+        }
+        let last = self.target.rel().rsplit('.').next().unwrap_or_default();
+        match &self.values[j] {
+            Value::String(s) => s.clone(),
+            v => format!("{last} = {v}"),
         }
     }
 }
@@ -685,6 +704,7 @@ fn expand(table: &mut Table, grids: &mut [Vec<Axis>], base: &LoadedConfig) -> Re
                 let mut x = m.clone();
                 let mut parts = Vec::new();
                 let mut group_parts = Vec::new();
+                let mut label_parts = Vec::new();
                 for (a, &j) in axes.iter().zip(&idx) {
                     let what = format!("sweep `{}` value {}", a.key, show(&a.values[j]));
                     set_path(&mut x, a.target.rel(), a.values[j].clone())
@@ -692,6 +712,7 @@ fn expand(table: &mut Table, grids: &mut [Vec<Axis>], base: &LoadedConfig) -> Re
                     let p = a.part(j);
                     if a.groups() {
                         group_parts.push(p.clone());
+                        label_parts.push(a.label_part(j));
                     }
                     parts.push(p);
                 }
@@ -717,6 +738,17 @@ fn expand(table: &mut Table, grids: &mut [Vec<Axis>], base: &LoadedConfig) -> Re
                     format!("{base_group}-{}", group_parts.join("-"))
                 };
                 x.insert("name".into(), Value::String(vname.clone()));
+                // A labelled method's variants are told apart in legends and
+                // tables: `BDT (ours) (epsilon = 0.02)`; replicates (seed
+                // axes) share their group and keep its label.
+                if let Some(label) = m.get("label").and_then(Value::as_str) {
+                    if !label_parts.is_empty() {
+                        x.insert(
+                            "label".into(),
+                            Value::String(format!("{label} ({})", label_parts.join(", "))),
+                        );
+                    }
+                }
                 if group == vname {
                     x.remove("group");
                 } else {
