@@ -299,3 +299,43 @@ fn messages_carry_no_internal_prefix() {
     );
     assert!(err.starts_with("error: --handles"), "{err}");
 }
+
+/// A mesh of another shape under a `tr_reg_XXX.ply` name is named when the
+/// folder is opened (from the PLY headers), not inside its first case after
+/// the key point selection.
+#[test]
+fn a_foreign_mesh_in_a_faust_folder_is_named_at_load() {
+    use deformlab::data::synthetic::{self, FaustStyle};
+    let dir = tmp();
+    let data = dir.path().join("faust");
+    let set = FaustStyle {
+        subjects: 2,
+        poses: 2,
+        resolution: 1,
+        ..FaustStyle::default()
+    }
+    .generate()
+    .unwrap();
+    synthetic::write_faust_style(&data, &set).unwrap();
+    write_ply(&data.join("tr_reg_011.ply"), &icosphere(2)).unwrap();
+    let config = write(
+        dir.path(),
+        "c.toml",
+        format!(
+            "name = \"c\"\n[dataset.faust]\npath = \"{}\"\n[[methods]]\nname = \"b\"\nkind = \"bdt\"\n",
+            data.display()
+        ),
+    );
+    let out = dir.path().join("out");
+    let err = cli_err(
+        &[
+            "run",
+            config.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &["tr_reg_011.ply", "162 vertices, 320 faces", "one template"],
+    );
+    assert!(!err.contains("key point"), "{err}");
+    assert!(!out.join("c/cases").exists(), "a case ran");
+}

@@ -60,7 +60,83 @@ pub struct FaustFolder {
     pub entries: Vec<FaustEntry>,
 }
 
+/// The vertex and face counts a PLY header announces (`None` when the
+/// header cannot be read: the mesh reader reports that file itself).
+fn ply_counts(path: &Path) -> Option<(usize, usize)> {
+    use std::io::Read;
+    let mut head = vec![0u8; 1 << 14];
+    let mut f = std::fs::File::open(path).ok()?;
+    let n = f.read(&mut head).ok()?;
+    let text = String::from_utf8_lossy(&head[..n]);
+    let (mut v, mut fc) = (None, None);
+    for line in text.lines() {
+        let w: Vec<&str> = line.split_whitespace().collect();
+        match w.as_slice() {
+            ["element", "vertex", k] => v = k.parse().ok(),
+            ["element", "face", k] => fc = k.parse().ok(),
+            ["end_header"] => break,
+            _ => {}
+        }
+    }
+    Some((v?, fc?))
+}
+
 impl FaustFolder {
+    /// Checks that the folder holds registrations of one template, as a
+    /// FAUST-style folder must: every mesh announces the vertex and face
+    /// counts most of them have (read from the PLY headers, so it costs no
+    /// mesh load). A mesh of another shape saved under a `tr_reg_XXX.ply`
+    /// name is named here, when the folder is opened, instead of failing
+    /// inside its first case.
+    pub fn check_one_connectivity(&self) -> Result<()> {
+        let counts: Vec<(&FaustEntry, (usize, usize))> = self
+            .entries
+            .iter()
+            .filter_map(|e| Some((e, ply_counts(&e.path)?)))
+            .collect();
+        let mut tally: BTreeMap<(usize, usize), usize> = BTreeMap::new();
+        for (_, c) in &counts {
+            *tally.entry(*c).or_default() += 1;
+        }
+        let Some((&common, _)) = tally
+            .iter()
+            .max_by_key(|(c, n)| (**n, std::cmp::Reverse(**c)))
+        else {
+            return Ok(());
+        };
+        let odd: Vec<String> = counts
+            .iter()
+            .filter(|(_, c)| *c != common)
+            .map(|(e, (v, f))| {
+                format!(
+                    "{} ({v} vertices, {f} faces)",
+                    e.path.file_name().unwrap_or_default().to_string_lossy()
+                )
+            })
+            .collect();
+        if odd.is_empty() {
+            return Ok(());
+        }
+        let first = counts
+            .iter()
+            .find(|(_, c)| *c != common)
+            .map(|(e, _)| e.path.clone());
+        Err(Error::parse(
+            first.unwrap_or_default(),
+            "mesh",
+            format!(
+                "a FAUST-style folder holds registrations of one template, and {} of its {} \
+                 meshes have {} vertices and {} faces, but {}: another shape under a \
+                 tr_reg_XXX.ply name?",
+                tally[&common],
+                counts.len(),
+                common.0,
+                common.1,
+                odd.join(", ")
+            ),
+        ))
+    }
+
     /// Scans `dir`. Errors if it cannot be read or holds no `tr_reg_*.ply`.
     pub fn open(dir: &Path) -> Result<Self> {
         let mut entries = Vec::new();

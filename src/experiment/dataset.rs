@@ -480,6 +480,7 @@ impl Collection {
 
     fn faust(dir: &Path) -> Result<Self> {
         let f = FaustFolder::open(dir)?;
+        f.check_one_connectivity()?;
         let mut subjects: Vec<Subject> = Vec::new();
         for e in &f.entries {
             let sid = e.subject.to_string();
