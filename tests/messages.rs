@@ -339,3 +339,30 @@ fn a_foreign_mesh_in_a_faust_folder_is_named_at_load() {
     assert!(!err.contains("key point"), "{err}");
     assert!(!out.join("c/cases").exists(), "a case ran");
 }
+
+/// One name per concept: the weight problem is `--weights` in `weights` as
+/// in `transfer` and the configs (`--mode` is the candidate scoring of
+/// `keypoints` and `transfer`); the former `--mode` of `weights` still works.
+#[test]
+fn weights_takes_the_weight_problem_as_weights() {
+    let dir = tmp();
+    let a = dir.path().join("a.ply");
+    write_ply(&a, &icosphere(2)).unwrap();
+    let base = ["weights", a.to_str().unwrap(), "--handles", "3"];
+    let new = run(&[&base[..], &["--weights", "coupled"]].concat());
+    let old = run(&[&base[..], &["--mode", "coupled"]].concat());
+    assert!(
+        new.status.success(),
+        "{}",
+        String::from_utf8_lossy(&new.stderr)
+    );
+    let text = String::from_utf8_lossy(&new.stdout);
+    assert!(text.contains("Coupled"), "{text}");
+    assert!(old.status.success());
+    let help = run(&["weights", "--help"]);
+    let help = String::from_utf8_lossy(&help.stdout);
+    assert!(
+        help.contains("--weights <WEIGHTS>") && !help.contains("--mode"),
+        "{help}"
+    );
+}

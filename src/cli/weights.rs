@@ -24,7 +24,7 @@ use super::keypoints::load_checked;
 #[derive(Args, Debug)]
 #[command(after_help = "Examples:\n  \
     deformlab weights ../shared/data/faust/tr_reg_001.ply --handles 10\n  \
-    deformlab weights mesh.off --handle-vertices 12,400,977 --mode per-handle --out W.csv\n\n\
+    deformlab weights mesh.off --handle-vertices 12,400,977 --weights per-handle --out W.csv\n\n\
     Prints the vertex and handle counts, the wall and CPU time of the precomputation\n\
     (L, M, Q = L M⁻¹ L) and of the weights, the active-set iterations (per handle, and\n\
     of the coupled support iteration) and the KKT residual. With --out, W.csv has one\n\
@@ -43,7 +43,10 @@ pub struct WeightsArgs {
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Help text (with the library's default) in `help` below.
-    #[arg(long, value_enum, help = super::keypoints::default_help(
+    /// `--weights`, as in `transfer` and the configs (`weights = …`); the
+    /// former `--mode` is still read (hidden): `--mode` is the candidate
+    /// scoring in `keypoints` and `transfer`.
+    #[arg(long = "weights", alias = "mode", value_name = "WEIGHTS", value_enum, help = super::keypoints::default_help(
         "Which weights: coupled = BDT Eq. 1 (bounds and partition of unity in one problem); \
          per-handle = each handle bounded, rows normalised",
         super::keypoints::value_name(&BbwOptions::default().mode)))]
