@@ -19,7 +19,8 @@ pub struct MergeArgs {
     /// Experiment folders written by `deformlab run --shard`.
     #[arg(required = true)]
     pub dirs: Vec<PathBuf>,
-    /// Merged experiment folder.
+    /// The merged experiment folder itself (`ROOT/NAME`: one level below
+    /// the `--out ROOT` of `run`, which holds one folder per experiment).
     #[arg(long)]
     pub out: PathBuf,
     /// Do not make the plots.

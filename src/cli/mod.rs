@@ -111,7 +111,7 @@ pub enum Command {
         error; exact at a smaller n_c unless --exact-full: hours at n_c = 100);\n\
         baselines (Sumner DT on cat → lion: correspondence, factorisation, per-pose solve;\n\
         Sumner, oracle and cage DT on the synthetic Fig. 14 cases).\n\
-        bbw and keypoints read ../shared/data (or DEFORMLAB_SHARED_DATA) and fall back to\n\
+        bbw and keypoints read the data root (DEFORMLAB_DATA, else ../shared/data) and fall back to\n\
         synthetic meshes.\n\n\
         Examples:\n  \
         deformlab bench --quick\n  \

@@ -32,7 +32,8 @@ use deformlab::Result;
     Mesh defects that change results are printed as one warning per file and kind and recorded\n\
     in manifest.json; --strict refuses such meshes, --repair fixes the standard ones.")]
 pub struct RunArgs {
-    /// Experiment configs (TOML), run one after the other.
+    /// Experiment configs (TOML), run side by side on one pool of worker
+    /// threads.
     #[arg(required = true)]
     pub configs: Vec<PathBuf>,
     /// Results root: experiment `name` is written to ROOT/name.
