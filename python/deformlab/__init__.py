@@ -121,8 +121,11 @@ def _faces(F: Any, name: str, n: int) -> np.ndarray:
 
 
 def _mesh(M: Any, name: str) -> Tuple[np.ndarray, np.ndarray]:
+    # A trimesh.Trimesh (or any object with .vertices and .faces) is a mesh too.
+    if not isinstance(M, (tuple, list)) and hasattr(M, "vertices") and hasattr(M, "faces"):
+        M = (np.asarray(M.vertices), np.asarray(M.faces))
     if not isinstance(M, (tuple, list)) or len(M) != 2:
-        raise ValueError(f"{name}: expected a mesh as a (V, F) pair")
+        raise ValueError(f"{name}: expected a mesh as a (V, F) pair or an object with .vertices and .faces (e.g. trimesh.Trimesh)")
     V = _vertices(M[0], f"{name} V")
     return V, _faces(M[1], f"{name} F", V.shape[0])
 
@@ -138,6 +141,8 @@ def _poses(A_primes: Any, n: int, name: str = "A_primes") -> List[np.ndarray]:
     for j, P in enumerate(A_primes):
         if isinstance(P, (tuple, list)) and len(P) == 2 and np.ndim(P[0]) == 2:
             P = P[0]  # a (V, F) pair: the faces are A's
+        elif hasattr(P, "vertices") and not isinstance(P, np.ndarray):
+            P = np.asarray(P.vertices)  # a trimesh-like object: the faces are A's
         out.append(_vertices(P, f"{name}[{j}]", n))
     return out
 
@@ -493,6 +498,10 @@ class FbtModel:
         nicp: Optional[bool] = None,
         seed: Optional[int] = None,
     ) -> None:
+        if isinstance(examples, np.ndarray) and examples.ndim == 3:
+            examples = list(examples)
+        if rig is not None and isinstance(rig, np.ndarray) and rig.ndim == 3:
+            rig = list(rig)
         if not isinstance(examples, (list, tuple)) or len(examples) == 0:
             raise ValueError("examples: expected a non-empty list of (n, 3) vertex arrays")
         V0 = _vertices(examples[0], "examples[0]")
@@ -581,13 +590,15 @@ def synthetic(
     connectivity (vertex ``i`` of every mesh corresponds); ``resolution``
     1..5 (1: ~1.7k vertices, 2: ~6.7k, the default). ``None``: the library's
     defaults (6 subjects, 8 poses, resolution 2, seed 0). Returns
-    ``{"V": V[subject][pose] float64 (n, 3), "F": int64 (m, 3), "labels":
-    int64 (n,) bone of each vertex}``; pose 0 is the reference pose.
+    ``{"V": float64 (subjects, poses, n, 3), "F": int64 (m, 3), "labels":
+    int64 (n,) bone of each vertex}``: ``V[s][p]`` (or ``V[s, p]``) is
+    subject ``s`` in pose ``p``; pose 0 is the reference pose.
     """
     for name, x in (("subjects", subjects), ("poses", poses), ("resolution", resolution), ("seed", seed)):
         if x is not None and (not isinstance(x, (int, np.integer)) or isinstance(x, bool) or x < 0):
             raise ValueError(f"{name}: expected a non-negative integer, got {x!r}")
     V, F, labels = _native.synthetic(subjects, poses, resolution, seed)
+    V = np.stack([np.stack([np.asarray(P, dtype=np.float64) for P in s]) for s in V])
     return {"V": V, "F": F, "labels": np.asarray(labels, dtype=np.int64)}
 
 
@@ -687,10 +698,23 @@ def _fmt(v: Any) -> str:
     return repr(v) if isinstance(v, float) else str(v)
 
 
+def _index_array(cell: Any) -> np.ndarray:
+    """A key point cell of cases.csv ("4663;4835", a number, or empty) as an int64 array."""
+    if cell is None or (isinstance(cell, float) and np.isnan(cell)):
+        return np.zeros(0, dtype=np.int64)
+    if isinstance(cell, (int, np.integer, float, np.floating)):
+        return np.array([int(cell)], dtype=np.int64)
+    text = str(cell).strip()
+    if not text:
+        return np.zeros(0, dtype=np.int64)
+    return np.array([int(t) for t in text.split(";") if t.strip()], dtype=np.int64)
+
+
 def load_results(folder: Union[str, os.PathLike]) -> Dict[str, Any]:
     """Read a results folder (``deformlab run``'s ``ROOT/<name>/``) into pandas.
 
-    Returns ``{"cases": DataFrame, "summary": DataFrame, "curves": DataFrame,
+    ``cases``' key point columns (``keypoints``, ``target_keypoints``) hold
+    int64 arrays. Returns ``{"cases": DataFrame, "summary": DataFrame, "curves": DataFrame,
     "manifest": dict, "timings": DataFrame, "timing_summary": DataFrame,
     "runs": dict}`` (a table missing from the folder is ``None``). The
     timings (``seconds_*`` columns per case and summarised) and the log of
@@ -711,6 +735,11 @@ def load_results(folder: Union[str, os.PathLike]) -> Dict[str, Any]:
     for name in ("cases", "summary", "curves"):
         p = os.path.join(folder, f"{name}.csv")
         out[name] = pd.read_csv(p) if os.path.exists(p) else None
+    if out["cases"] is not None:
+        # Key points as integer arrays (the CSV writes "4663;4835").
+        for col in ("keypoints", "target_keypoints"):
+            if col in out["cases"].columns:
+                out["cases"][col] = out["cases"][col].map(_index_array)
     p = os.path.join(folder, "manifest.json")
     if os.path.exists(p):
         with open(p) as fh:

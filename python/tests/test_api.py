@@ -217,3 +217,27 @@ def test_python_functions_run_as_methods(tmp_path):
     # Without the function the config does not load.
     with pytest.raises(Exception, match="shift"):
         dl.run(cfg, out=tmp_path / "out3")
+
+
+class _TrimeshLike:
+    """What trimesh.Trimesh offers a caller: .vertices and .faces."""
+
+    def __init__(self, V, F):
+        self.vertices, self.faces = V, F
+
+
+def test_trimesh_like_objects_are_meshes(small_set):
+    V, F = small_set["V"], small_set["F"]
+    a = dl.transfer((V[0][0], F), [V[0][1]], (V[1][0], F), keypoints=[0, 100, 200], target_keypoints=[0, 100, 200])
+    b = dl.transfer(_TrimeshLike(V[0][0], F), [_TrimeshLike(V[0][1], F)], _TrimeshLike(V[1][0], F),
+                    keypoints=[0, 100, 200], target_keypoints=[0, 100, 200])
+    np.testing.assert_array_equal(a["meshes"][0], b["meshes"][0])
+    with pytest.raises(ValueError, match=r"\.vertices and \.faces"):
+        dl.transfer(object(), [V[0][1]], (V[1][0], F))
+
+
+def test_synthetic_returns_stacked_arrays(small_set):
+    V = small_set["V"]
+    assert isinstance(V, np.ndarray) and V.dtype == np.float64
+    assert V.shape == (2, 3, small_set["labels"].shape[0], 3)
+    np.testing.assert_array_equal(V[1, 2], V[1][2])

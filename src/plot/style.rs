@@ -120,8 +120,10 @@ fn hsv_to_rgb(h: f64, s: f64, v: f64) -> [u8; 3] {
 }
 
 /// Series colours of charts: the Okabe–Ito colour-blind-safe set without its
-/// yellow (too light on white), plus black and two darker extras.
-const SERIES_PALETTE: [[u8; 3]; 8] = [
+/// yellow (too light on white), plus black, brown and four darker colours
+/// of Paul Tol's muted set: twelve colours, so a chart of up to twelve
+/// series (bars carry no dash pattern) repeats none.
+const SERIES_PALETTE: [[u8; 3]; 12] = [
     [0, 114, 178],   // blue
     [213, 94, 0],    // vermillion
     [0, 158, 115],   // bluish green
@@ -130,6 +132,10 @@ const SERIES_PALETTE: [[u8; 3]; 8] = [
     [86, 180, 233],  // sky blue
     [0, 0, 0],       // black
     [120, 70, 30],   // brown
+    [153, 153, 51],  // olive
+    [136, 34, 85],   // wine
+    [51, 34, 136],   // indigo
+    [17, 119, 51],   // dark green
 ];
 
 /// Dash pattern of a line: `None` solid, `Some((dash, gap))` in pixels at
@@ -180,13 +186,16 @@ pub const FLOOR_STYLE: SeriesStyle = SeriesStyle {
 
 /// The style of series `index` among `count` series: distinct colours; with
 /// more than [`MAX_PLAIN_SERIES`] series also distinct dash patterns, so
-/// that (colour, dash) pairs are unique up to 24 series; marker shapes cycle
+/// that (colour, dash) pairs are unique up to 36 series; marker shapes cycle
 /// through six shapes (drawn when the chart asks for markers, and always
 /// when there are more than [`MAX_PLAIN_SERIES`] series).
 pub fn series_style(index: usize, count: usize) -> SeriesStyle {
     let color = SERIES_PALETTE[index % SERIES_PALETTE.len()];
+    // The dash shifts by one every full turn of the palette, so (colour,
+    // dash) pairs stay unique over three turns.
+    let turn = index / SERIES_PALETTE.len();
     let dash = if count > MAX_PLAIN_SERIES {
-        DASHES[index % DASHES.len()]
+        DASHES[(index + turn) % DASHES.len()]
     } else {
         None
     };
@@ -208,9 +217,18 @@ mod tests {
         }
     }
 
+    /// Bars are told apart by colour alone: the first twelve series have
+    /// twelve colours (a ten-method figure repeated two before).
     #[test]
-    fn series_styles_are_unique_up_to_24() {
-        let n = 24;
+    fn twelve_series_have_twelve_colours() {
+        let colours: std::collections::BTreeSet<[u8; 3]> =
+            (0..12).map(|i| series_style(i, 12).color).collect();
+        assert_eq!(colours.len(), 12);
+    }
+
+    #[test]
+    fn series_styles_are_unique_up_to_36() {
+        let n = 36;
         let styles: Vec<_> = (0..n).map(|i| series_style(i, n)).collect();
         for i in 0..n {
             for j in 0..i {
