@@ -47,7 +47,16 @@ fn flattened_mesh_is_named_at_load() {
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(!o.status.success() && text.contains("flattened"), "{text}");
     // A flat open surface (a disk) is a legitimate mesh.
-    let disk = Mesh::new(
+    let disk = disk();
+    let d = dir.path().join("disk.ply");
+    write_ply(&d, &disk).unwrap();
+    let o = run(&["inspect".to_string(), d.display().to_string()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stdout));
+}
+
+/// A flat open surface of two triangles (a disk: one boundary loop).
+fn disk() -> Mesh {
+    Mesh::new(
         vec![
             deformlab::Point::new(0.0, 0.0, 0.0),
             deformlab::Point::new(1.0, 0.0, 0.0),
@@ -56,11 +65,7 @@ fn flattened_mesh_is_named_at_load() {
         ],
         vec![[0, 1, 2], [0, 2, 3]],
     )
-    .unwrap();
-    let d = dir.path().join("disk.ply");
-    write_ply(&d, &disk).unwrap();
-    let o = run(&["inspect".to_string(), d.display().to_string()]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stdout));
+    .unwrap()
 }
 
 fn ascii_ply(props: &[&str], rows: &[String]) -> String {
@@ -250,16 +255,7 @@ fn link_loops_are_not_called_missing() {
 #[test]
 fn open_surfaces_are_not_defective() {
     let dir = tmp();
-    let disk = Mesh::new(
-        vec![
-            deformlab::Point::new(0.0, 0.0, 0.0),
-            deformlab::Point::new(1.0, 0.0, 0.0),
-            deformlab::Point::new(0.0, 1.0, 0.0),
-            deformlab::Point::new(-1.0, 0.0, 0.0),
-        ],
-        vec![[0, 1, 2], [0, 2, 3]],
-    )
-    .unwrap();
+    let disk = disk();
     let d = dir.path().join("disk.ply");
     write_ply(&d, &disk).unwrap();
     let o = run(&["inspect".to_string(), d.display().to_string()]);
