@@ -83,30 +83,31 @@ fn ply_counts(path: &Path) -> Option<(usize, usize)> {
 
 impl FaustFolder {
     /// Checks that the folder holds registrations of one template, as a
-    /// FAUST-style folder must: every mesh announces the vertex and face
-    /// counts most of them have (read from the PLY headers, so it costs no
-    /// mesh load). A mesh of another shape saved under a `tr_reg_XXX.ply`
-    /// name is named here, when the folder is opened, instead of failing
-    /// inside its first case.
+    /// FAUST-style folder must: every mesh announces the vertex count most
+    /// of them have (read from the PLY headers, so it costs no mesh load).
+    /// A mesh of another shape saved under a `tr_reg_XXX.ply` name is named
+    /// here, when the folder is opened, instead of failing inside its first
+    /// case. Face counts are not compared: a registration with defects (a
+    /// duplicate face) is the defect policy's to warn about or repair.
     pub fn check_one_connectivity(&self) -> Result<()> {
         let counts: Vec<(&FaustEntry, (usize, usize))> = self
             .entries
             .iter()
             .filter_map(|e| Some((e, ply_counts(&e.path)?)))
             .collect();
-        let mut tally: BTreeMap<(usize, usize), usize> = BTreeMap::new();
+        let mut tally: BTreeMap<usize, usize> = BTreeMap::new();
         for (_, c) in &counts {
-            *tally.entry(*c).or_default() += 1;
+            *tally.entry(c.0).or_default() += 1;
         }
-        let Some((&common, _)) = tally
+        let Some((&common, &n_common)) = tally
             .iter()
-            .max_by_key(|(c, n)| (**n, std::cmp::Reverse(**c)))
+            .max_by_key(|(v, n)| (**n, std::cmp::Reverse(**v)))
         else {
             return Ok(());
         };
         let odd: Vec<String> = counts
             .iter()
-            .filter(|(_, c)| *c != common)
+            .filter(|(_, c)| c.0 != common)
             .map(|(e, (v, f))| {
                 format!(
                     "{} ({v} vertices, {f} faces)",
@@ -119,19 +120,17 @@ impl FaustFolder {
         }
         let first = counts
             .iter()
-            .find(|(_, c)| *c != common)
+            .find(|(_, c)| c.0 != common)
             .map(|(e, _)| e.path.clone());
         Err(Error::parse(
             first.unwrap_or_default(),
             "mesh",
             format!(
                 "a FAUST-style folder holds registrations of one template, and {} of its {} \
-                 meshes have {} vertices and {} faces, but {}: another shape under a \
-                 tr_reg_XXX.ply name?",
-                tally[&common],
+                 meshes have {} vertices, but {}: another shape under a tr_reg_XXX.ply name?",
+                n_common,
                 counts.len(),
-                common.0,
-                common.1,
+                common,
                 odd.join(", ")
             ),
         ))
