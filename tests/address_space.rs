@@ -87,17 +87,8 @@ fn runs_fit_their_workers_in_an_address_space_limit() {
 /// run with the threads that fit and say so.
 #[test]
 fn commands_fit_the_global_pool_in_an_address_space_limit() {
-    use deformlab::data::synthetic::{self, FaustStyle};
     let t = tempfile::tempdir().unwrap();
-    let set = FaustStyle {
-        subjects: 1,
-        poses: 3,
-        resolution: 1,
-        ..FaustStyle::default()
-    }
-    .generate()
-    .unwrap();
-    synthetic::write_faust_style(t.path(), &set).unwrap();
+    common::synthetic_faust(t.path(), 1, 3);
     let mesh = |i: usize| t.path().join(format!("tr_reg_00{i}.ply"));
     let buffer = dense_buffer_per_thread() >> 10;
     let kib = 160 * 1024 + buffer + 2 * (buffer + 16 * 1024) + 8 * 1024;

@@ -301,18 +301,9 @@ fn messages_carry_no_internal_prefix() {
 /// the key point selection.
 #[test]
 fn a_foreign_mesh_in_a_faust_folder_is_named_at_load() {
-    use deformlab::data::synthetic::{self, FaustStyle};
     let dir = tmp();
     let data = dir.path().join("faust");
-    let set = FaustStyle {
-        subjects: 2,
-        poses: 2,
-        resolution: 1,
-        ..FaustStyle::default()
-    }
-    .generate()
-    .unwrap();
-    synthetic::write_faust_style(&data, &set).unwrap();
+    common::synthetic_faust(&data, 2, 2);
     write_ply(&data.join("tr_reg_011.ply"), &icosphere(2)).unwrap();
     let config = write(
         dir.path(),

@@ -698,6 +698,14 @@ def _fmt(v: Any) -> str:
     return repr(v) if isinstance(v, float) else str(v)
 
 
+def _read_json(path: str) -> Optional[Any]:
+    """The JSON document at ``path``, ``None`` when there is no such file."""
+    if not os.path.exists(path):
+        return None
+    with open(path) as fh:
+        return json.load(fh)
+
+
 def _index_array(cell: Any) -> np.ndarray:
     """A key point cell of cases.csv ("4663;4835", a number, or empty) as an int64 array."""
     if cell is None or (isinstance(cell, float) and np.isnan(cell)):
@@ -722,8 +730,6 @@ def load_results(folder: Union[str, os.PathLike]) -> Dict[str, Any]:
     differ between two runs of one config, everything else does not. Needs
     pandas (``pip install deformlab[results]``): ``ImportError`` otherwise.
     """
-    import json
-
     try:
         import pandas as pd
     except ImportError as e:  # pragma: no cover - depends on the environment
@@ -740,22 +746,12 @@ def load_results(folder: Union[str, os.PathLike]) -> Dict[str, Any]:
         for col in ("keypoints", "target_keypoints"):
             if col in out["cases"].columns:
                 out["cases"][col] = out["cases"][col].map(_index_array)
-    p = os.path.join(folder, "manifest.json")
-    if os.path.exists(p):
-        with open(p) as fh:
-            out["manifest"] = json.load(fh)
-    else:
-        out["manifest"] = None
+    out["manifest"] = _read_json(os.path.join(folder, "manifest.json"))
     timings = os.path.join(folder, "timings")
     for key, name in (("timings", "cases.csv"), ("timing_summary", "summary.csv")):
         p = os.path.join(timings, name)
         out[key] = pd.read_csv(p) if os.path.exists(p) else None
-    p = os.path.join(timings, "runs.json")
-    if os.path.exists(p):
-        with open(p) as fh:
-            out["runs"] = json.load(fh)
-    else:
-        out["runs"] = None
+    out["runs"] = _read_json(os.path.join(timings, "runs.json"))
     if all(out[k] is None for k in ("cases", "summary", "curves", "manifest")):
         raise ValueError(f"folder: {folder} holds no results (no cases.csv, summary.csv, curves.csv nor manifest.json)")
     return out

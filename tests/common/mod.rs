@@ -157,6 +157,21 @@ pub fn runs(dir: &Path) -> serde_json::Value {
     .unwrap()
 }
 
+/// Writes a synthetic FAUST-style folder (`tr_reg_XXX.ply`, resolution 1,
+/// 1682 vertices) of `subjects` × `poses` meshes into `dir`.
+pub fn synthetic_faust(dir: &Path, subjects: usize, poses: usize) {
+    use deformlab::data::synthetic::{write_faust_style, FaustStyle};
+    let set = FaustStyle {
+        subjects,
+        poses,
+        resolution: 1,
+        ..FaustStyle::default()
+    }
+    .generate()
+    .unwrap();
+    write_faust_style(dir, &set).unwrap();
+}
+
 /// A fresh temporary folder, removed when dropped.
 pub fn tmp() -> tempfile::TempDir {
     tempfile::tempdir().expect("temp dir")
