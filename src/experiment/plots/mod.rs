@@ -120,16 +120,6 @@ fn with_timings(mut rows: Vec<Row>, dir: &Path) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
-/// Whether any figure of a config's `[outputs]` shows timings.
-fn specs_show_timing(config: &Config) -> bool {
-    let specs = if config.outputs.plots.is_empty() {
-        default_plots(config)
-    } else {
-        config.outputs.plots.clone()
-    };
-    specs.iter().any(PlotSpec::shows_timing)
-}
-
 fn f(row: &Row, col: &str) -> Option<f64> {
     row.get(col)
         .and_then(|s| s.parse::<f64>().ok())
@@ -436,7 +426,13 @@ pub fn make_plots_with(dir: &Path, config: Option<&LoadedConfig>) -> Result<Vec<
         }
     }
     own_subdir(dir, "plots")?;
-    if specs_show_timing(&config) {
+    // The figures: the config's, else the defaults for its methods.
+    let specs = if config.outputs.plots.is_empty() {
+        default_plots(&config)
+    } else {
+        config.outputs.plots.clone()
+    };
+    if specs.iter().any(PlotSpec::shows_timing) {
         own_subdir(&own_subdir(dir, TIMINGS_DIR)?, "plots")?;
     }
     let mut ctx = Ctx {
@@ -455,10 +451,6 @@ pub fn make_plots_with(dir: &Path, config: Option<&LoadedConfig>) -> Result<Vec<
         floor_label,
         warnings: Vec::new(),
     };
-    let mut specs = ctx.config.outputs.plots.clone();
-    if specs.is_empty() {
-        specs = default_plots(&ctx.config);
-    }
     let all_groups = ctx.groups.clone();
     for spec in &specs {
         ctx.groups = all_groups
