@@ -7,6 +7,7 @@ mod keypoints;
 mod merge;
 mod plot;
 mod progress;
+mod report;
 mod run;
 mod transfer;
 mod weights;
@@ -163,6 +164,9 @@ pub enum Command {
     /// Regenerate the plots of results folders from their CSVs and meshes
     /// (with --config, as a config file's [outputs] now say).
     Plot(plot::PlotArgs),
+    /// Write one self-contained HTML report of results folders: summary
+    /// tables with their floor, figures, per-case tables, meshes in 3D.
+    Report(report::ReportArgs),
     /// Print the registry of method kinds and the keys each uses (Markdown;
     /// docs/methods.md is this output).
     Methods,
@@ -232,6 +236,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Run(a) => run::run(a),
         Command::Merge(a) => merge::run(a),
         Command::Plot(a) => plot::run(a),
+        Command::Report(a) => report::run(a),
         Command::Methods => {
             print!("{}", deformlab::methods::registry::reference_markdown());
             Ok(ExitCode::SUCCESS)

@@ -22,6 +22,7 @@ pub mod load;
 pub mod lock;
 pub mod manifest;
 pub mod plots;
+pub mod report;
 pub use crate::range;
 pub mod record;
 pub mod runner;
@@ -38,5 +39,6 @@ pub use load::{
 pub use lock::FolderLock;
 pub use manifest::{read_manifest, Manifest, Shard};
 pub use plots::{make_plots, make_plots_with};
+pub use report::{build_report, write_report, Report, ReportOptions};
 pub use runner::{merge, run_configs, RunOptions, RunSummary};
 pub use store::{CaseResult, Store, CASE_COLUMNS};

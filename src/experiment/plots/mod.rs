@@ -68,9 +68,9 @@ use crate::{Error, Result};
 
 pub use self::tables::latex_escape;
 
-type Row = BTreeMap<String, String>;
+pub(crate) type Row = BTreeMap<String, String>;
 
-fn read_csv(path: &Path) -> Result<Vec<Row>> {
+pub(crate) fn read_csv(path: &Path) -> Result<Vec<Row>> {
     let mut r =
         csv::Reader::from_path(path).map_err(|e| Error::parse(path, "CSV", e.to_string()))?;
     let headers = r
@@ -376,23 +376,7 @@ pub fn make_plots_with(dir: &Path, config: Option<&LoadedConfig>) -> Result<Vec<
             None => groups.push((g, vec![m.name.clone()])),
         }
     }
-    // The floor: B left unchanged (transfer) or the template left
-    // undeformed (completion), whichever the config has first.
-    let floor = config.methods.iter().find_map(|m| {
-        let label = if m.kind == super::config::MethodKind::Identity {
-            IDENTITY_LABEL
-        } else if m
-            .fbt
-            .as_ref()
-            .is_some_and(|f| f.solver == Some(crate::methods::completion::SolverKind::Template))
-        {
-            TEMPLATE_LABEL
-        } else {
-            return None;
-        };
-        Some((m.group.clone().unwrap_or_else(|| m.name.clone()), label))
-    });
-    let (identity_group, floor_label) = match floor {
+    let (identity_group, floor_label) = match floor_of(&config) {
         Some((g, l)) => (Some(g), l),
         None => (None, IDENTITY_LABEL),
     };
@@ -408,23 +392,7 @@ pub fn make_plots_with(dir: &Path, config: Option<&LoadedConfig>) -> Result<Vec<
     let titles = config.outputs.title != Some(TitleSpec::Show(false));
     let subtitles = config.outputs.subtitle.unwrap_or(true);
     let caption = format!("{}; {} case(s)", manifest.dataset, n_cases);
-    let mut group_labels: BTreeMap<String, String> = BTreeMap::new();
-    let mut method_labels: BTreeMap<String, String> = BTreeMap::new();
-    for m in &config.methods {
-        let g = m.group.clone().unwrap_or_else(|| m.name.clone());
-        if let Some(l) = &m.label {
-            group_labels.entry(g).or_insert_with(|| l.clone());
-            method_labels.insert(m.name.clone(), l.clone());
-        }
-    }
-    for m in &config.methods {
-        let g = m.group.clone().unwrap_or_else(|| m.name.clone());
-        if let Some(l) = group_labels.get(&g) {
-            method_labels
-                .entry(m.name.clone())
-                .or_insert_with(|| l.clone());
-        }
-    }
+    let (group_labels, method_labels) = labels_of(&config);
     own_subdir(dir, "plots")?;
     // The figures: the config's, else the defaults for its methods.
     let specs = if config.outputs.plots.is_empty() {
@@ -513,6 +481,50 @@ pub(super) fn default_plots(c: &Config) -> Vec<PlotSpec> {
         v.push(spec(PlotKind::Clusters, &[]));
     }
     v
+}
+
+/// The floor of an experiment: the group of its first method that leaves B
+/// unchanged (transfer) or the template undeformed (completion), and that
+/// floor's legend entry; `None` when it has no such method.
+pub(crate) fn floor_of(config: &Config) -> Option<(String, &'static str)> {
+    config.methods.iter().find_map(|m| {
+        let label = if m.kind == super::config::MethodKind::Identity {
+            IDENTITY_LABEL
+        } else if m
+            .fbt
+            .as_ref()
+            .is_some_and(|f| f.solver == Some(crate::methods::completion::SolverKind::Template))
+        {
+            TEMPLATE_LABEL
+        } else {
+            return None;
+        };
+        Some((m.group.clone().unwrap_or_else(|| m.name.clone()), label))
+    })
+}
+
+/// The legend labels of a config: by group (the first `label` in the
+/// group) and by method (its own `label`, else its group's). Methods and
+/// groups without one are absent (the name is shown).
+pub(crate) fn labels_of(config: &Config) -> (BTreeMap<String, String>, BTreeMap<String, String>) {
+    let mut group_labels: BTreeMap<String, String> = BTreeMap::new();
+    let mut method_labels: BTreeMap<String, String> = BTreeMap::new();
+    for m in &config.methods {
+        let g = m.group.clone().unwrap_or_else(|| m.name.clone());
+        if let Some(l) = &m.label {
+            group_labels.entry(g).or_insert_with(|| l.clone());
+            method_labels.insert(m.name.clone(), l.clone());
+        }
+    }
+    for m in &config.methods {
+        let g = m.group.clone().unwrap_or_else(|| m.name.clone());
+        if let Some(l) = group_labels.get(&g) {
+            method_labels
+                .entry(m.name.clone())
+                .or_insert_with(|| l.clone());
+        }
+    }
+    (group_labels, method_labels)
 }
 
 /// Legend entry of the identity floor in cumulative plots.
