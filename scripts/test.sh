@@ -9,9 +9,12 @@
 #
 # Needs a Rust toolchain, python3 (with venv and pip) and network access to
 # PyPI for the Python packages (maturin, numpy, scipy, pandas, pytest;
-# libigl when it installs, else its cross-check is skipped). The binding is
-# compiled into the same target/ folder as the Rust tests, so the release
-# build of the library is reused. Real meshes (DEFORMLAB_DATA, else
+# libigl when it installs, else its cross-check is skipped). The report's
+# browser test uses Chromium (/usr/bin/chromium or DEFORMLAB_CHROMIUM) and
+# skips without it, except under CI, whose .ci/run installs it. The binding is
+# compiled into the same target/ folder, profile and feature sets as the
+# Rust tests, so the library they compiled is reused (the script fails if it
+# is compiled a second time). Real meshes (DEFORMLAB_DATA, else
 # ../shared/data) are used when present; tests that need them skip, saying
 # why, when absent.
 set -euo pipefail
@@ -26,8 +29,12 @@ case "$part" in
 esac
 
 if [ "$part" != python ]; then
-  echo "== Rust: cargo test --release"
-  cargo test --locked --release
+  # `--profile release`, not `--release` (which is Cargo's `bench` profile:
+  # the same settings under another name, part of each artifact's key): the
+  # binding below is built in the release profile and then links the
+  # library compiled here instead of compiling it again.
+  echo "== Rust: cargo test --profile release"
+  cargo test --locked --profile release
 else
   # The CLI binary the equality tests compare with (built by the line above
   # in a full run).
@@ -48,8 +55,18 @@ if ! "$py" -m pip install --quiet libigl; then
 fi
 wheels="$CARGO_TARGET_DIR/wheels"
 rm -f "$wheels"/deformlab-*.whl
+build_log=$(mktemp)
 PYO3_PYTHON="$py" "$venv/bin/maturin" build --release --locked \
-  -m python/Cargo.toml --interpreter "$py" --out "$wheels"
+  -m python/Cargo.toml --interpreter "$py" --out "$wheels" 2>&1 | tee "$build_log"
+# The root Cargo.toml asks for the binding's feature sets of the crates they
+# share, so the binding reuses what the tests compiled. Hold that: a second
+# compilation of the library costs minutes.
+if grep -qE "Compiling (deformlab|faer) v" "$build_log"; then
+  echo "error: the binding compiled the library a second time (the feature sets of the root and python/ differ; compare 'cargo tree -e features' of the two)" >&2
+  rm -f "$build_log"
+  exit 1
+fi
+rm -f "$build_log"
 "$py" -m pip install --quiet --force-reinstall --no-deps "$wheels"/deformlab-*.whl
 # Run from outside the checkout: the installed wheel is what is tested, not
 # the source folder.
