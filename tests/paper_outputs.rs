@@ -77,16 +77,7 @@ const CAPTION: &str = "synthetic FAUST-style set";
 
 /// Runs `text` (written as `dir/paper.toml`) into `dir/out/paper`.
 fn run_config(dir: &Path, text: &str) -> PathBuf {
-    let cfg = write(dir, "paper.toml", text);
-    let out = dir.join("out");
-    ok(&[
-        "run",
-        cfg.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-    ]);
-    out.join("paper")
+    common::run_config(dir, "paper", text)
 }
 
 /// The run with the default outputs, shared by the tests (read only).

@@ -10,7 +10,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::{cli_err, csv_rows, ok, run, tiny_bdt, tmp, write};
+use common::{cli_err, csv_rows, ok, run, tiny_bdt, tmp};
 
 /// A small BDT experiment with its floor, figures and saved meshes, run
 /// into `root`; returns its results folder.
@@ -26,16 +26,22 @@ fn experiment(root: &Path) -> PathBuf {
          [[outputs.plots]]\nkind = \"cumulative\"\n\
          [[outputs.plots]]\nkind = \"panels\"\n",
     );
-    let cfg = write(root, "rep.toml", config);
-    let out = root.join("results");
-    ok(&[
-        "run",
-        cfg.to_str().unwrap(),
+    common::run_config(root, "rep", &config)
+}
+
+/// `deformlab report root --out out`, expected to write the page and exit
+/// with 1 (warnings); returns its stderr.
+fn report_with_warnings(root: &Path, out: &Path) -> String {
+    let o = run(&[
+        "report",
+        root.to_str().unwrap(),
         "--out",
         out.to_str().unwrap(),
-        "--quiet",
     ]);
-    out.join("rep")
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(out.is_file(), "no page written: {err}");
+    err
 }
 
 fn report(root: &Path, out: &Path) -> String {
@@ -176,14 +182,7 @@ fn bad_roots_and_outputs_are_refused_by_name() {
         std::os::unix::fs::symlink(&dir, other.join("linked")).unwrap();
         common::copy_dir(&dir, &other.join("real"));
         let out = t.path().join("o.html");
-        let o = run(&[
-            "report",
-            other.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ]);
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(1), "{err}");
+        let err = report_with_warnings(&other, &out);
         assert!(
             err.contains("linked") && err.contains("symbolic link"),
             "{err}"
@@ -197,14 +196,7 @@ fn bad_roots_and_outputs_are_refused_by_name() {
     common::copy_dir(&dir, &broken.join("bad"));
     std::fs::write(broken.join("bad/cases.csv"), "case,method\n1,2,3\n").unwrap();
     let out = t.path().join("b.html");
-    let o = run(&[
-        "report",
-        broken.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    let err = report_with_warnings(&broken, &out);
     assert!(err.contains("cases.csv"), "{err}");
     assert!(std::fs::read_to_string(&out)
         .unwrap()

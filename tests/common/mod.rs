@@ -312,6 +312,22 @@ fbt = {{ task = "completion", q = {q}, nicp_iterations = 2, queries = 50 }}
 /// A small BDT transfer config on the synthetic set (subject 0 → 1, the
 /// poses `poses` in one case; fast selection from 40 candidates), with the
 /// `identity` floor when `floor`.
+/// Writes `text` as `dir/<name>.toml` and runs it into `dir/out`; returns
+/// its results folder `dir/out/<name>` (`name` is the config's name).
+#[track_caller]
+pub fn run_config(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let cfg = write(dir, &format!("{name}.toml"), text);
+    let out = dir.join("out");
+    ok(&[
+        "run",
+        cfg.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    out.join(name)
+}
+
 pub fn tiny_bdt(name: &str, poses: &str, floor: bool) -> String {
     let identity = if floor {
         "[[methods]]\nname = \"identity\"\nkind = \"identity\"\n"
