@@ -4,7 +4,7 @@
 use super::{column_label, f, metric_label, Ctx};
 use crate::experiment::config::PlotSpec;
 use crate::experiment::store::describe;
-use crate::plot::{save_bar_chart_as, save_line_chart_as, BarChart, LineChart, Series};
+use crate::plot::{save_bar_chart_styled, save_line_chart_styled, BarChart, LineChart, Series};
 use crate::{Error, Result};
 
 fn group_stats(ctx: &Ctx, g: &str, col: &str) -> Option<(f64, f64)> {
@@ -111,10 +111,11 @@ pub(super) fn bars(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         log_y: spec.log_y.unwrap_or(false),
     };
     let default = format!("bars_{}", spec.metrics.join("_"));
-    save_bar_chart_as(
+    save_bar_chart_styled(
         &chart,
         &ctx.stem(spec, &default),
         ctx.config.outputs.chart_formats(spec),
+        &ctx.config.outputs.chart_style(),
     )
 }
 
@@ -192,10 +193,11 @@ pub(super) fn trace(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         floor: None,
         ..Default::default()
     };
-    save_line_chart_as(
+    save_line_chart_styled(
         &chart,
         &ctx.stem(spec, "trace"),
         ctx.config.outputs.chart_formats(spec),
+        &ctx.config.outputs.chart_style(),
     )
 }
 
@@ -280,10 +282,11 @@ pub(super) fn line(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         floor: None,
         ..Default::default()
     };
-    save_line_chart_as(
+    save_line_chart_styled(
         &chart,
         &ctx.stem(spec, &format!("line_{x}")),
         ctx.config.outputs.chart_formats(spec),
+        &ctx.config.outputs.chart_style(),
     )
 }
 
@@ -359,5 +362,10 @@ pub(super) fn timing(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         errors: None,
         log_y: true,
     };
-    save_bar_chart_as(&chart, &stem, ctx.config.outputs.chart_formats(spec))
+    save_bar_chart_styled(
+        &chart,
+        &stem,
+        ctx.config.outputs.chart_formats(spec),
+        &ctx.config.outputs.chart_style(),
+    )
 }
