@@ -243,6 +243,19 @@ bounds!(
     /// `[0.3, 2]`: the vertex ratio of the synthetic remesh.
     RemeshRatio: 0.3, 2.0
 );
+bounds!(
+    /// `[0.5, 16]` inches: a chart's width or height (at most 600 dpi,
+    /// the PNG stays within 10 000 pixels a side).
+    ChartInches: 0.5, 16.0
+);
+bounds!(
+    /// `[4, 36]` points: the text of a chart.
+    FontPoints: 4.0, 36.0
+);
+bounds!(
+    /// `[50, 600]`: pixels per inch of a chart's PNG.
+    Dpi: 50.0, 600.0
+);
 
 #[cfg(test)]
 mod tests {

@@ -226,10 +226,13 @@ fn curve_panels_draw_one_figure_and_old_curve_names_still_plot() {
     let dir = t.path();
     results_folder(dir);
     make_plots(dir).unwrap();
-    // Three panels side by side in one PNG.
+    // Three panels side by side in one PNG, each of the default chart
+    // size (inches at the default dpi), the shared legend below.
     let png = image_size(&dir.join("plots/fig7.png"));
-    assert_eq!(png.0, 3 * 760, "{png:?}");
-    assert!(png.1 > 640 && png.1 < 900, "{png:?}");
+    let style = deformlab::plot::ChartStyle::PAPER;
+    let (w, h) = (style.width_in * style.dpi, style.height_in * style.dpi);
+    assert!((png.0 as f64 - 3.0 * w).abs() <= 3.0, "{png:?}");
+    assert!(png.1 as f64 > h && (png.1 as f64) < 2.0 * h, "{png:?}");
     assert!(dir.join("plots/fig7.svg").is_file());
     // The geodesic curve stored as `correspondence_area` (older runs) is
     // drawn as `correspondence_geodesic_area`.

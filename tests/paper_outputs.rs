@@ -1,6 +1,6 @@
 //! Paper-ready outputs of the harness (issue 20, points 5 and 7), on a tiny
 //! synthetic run (one case, three methods): a PDF beside every chart,
-//! `title` / `subtitle` switches, method labels in legends and tables, the
+//! `title` / `subtitle` switches (off by default), method labels in legends and tables, the
 //! up axis, `plot --config`, wrapping render grids, renders as PDF, LaTeX
 //! tables, a tidy `cases.csv` (and older wide ones still read), result
 //! meshes with their per-vertex `error`, and OBJ output on request.
@@ -195,11 +195,10 @@ fn method_labels_name_legends_categories_and_table_rows() {
     // Without a label, the identifier; the identity floor keeps its entry.
     assert!(legend.iter().any(|t| t == "extremity_user"), "{legend:?}");
     assert!(legend.iter().any(|t| t == "identity (B unchanged)"));
+    // Bar categories wrap on the one-column default chart: "BDT" over
+    // "(automatic)".
     let bars = svg_texts(&dir.join("plots/bars_err_mean_unit_err_rms_unit.svg"));
-    assert!(
-        bars.iter().any(|t| t.contains("BDT (automatic)")),
-        "{bars:?}"
-    );
+    assert!(bars.join(" ").contains("BDT (automatic)"), "{bars:?}");
     let md = std::fs::read_to_string(dir.join("plots/table.md")).unwrap();
     assert!(md.contains("| BDT (automatic) |"), "{md}");
     // The CSV keeps the identifiers (data, not display).
@@ -241,24 +240,27 @@ fn labels_are_not_part_of_the_results_key() {
 }
 
 #[test]
-fn title_and_subtitle_can_be_switched_off() {
+fn titles_are_off_by_default_and_can_be_switched_on() {
+    // By default a figure has no title and no provenance line (a paper
+    // gives it a caption).
     let dir = reference();
     let texts = svg_texts(&dir.join("plots/cumulative.svg"));
-    assert!(texts.iter().any(|t| t == TITLE), "{texts:?}");
-    assert!(texts.iter().any(|t| t.starts_with(CAPTION)), "{texts:?}");
+    assert!(!texts.iter().any(|t| t == TITLE), "{texts:?}");
+    assert!(!texts.iter().any(|t| t.starts_with(CAPTION)), "{texts:?}");
+    assert!(texts.iter().any(|t| t == "BDT (automatic)"), "legend kept");
 
     let t = tempfile::tempdir().unwrap();
     let copy = copy_of_reference(t.path());
-    // `[outputs] title = false, subtitle = false`, but the bars plot keeps
-    // its title (`title = true`) and the table plot names its own.
+    // `[outputs] title = true, subtitle = true`, but the bars plot has
+    // neither (`title = false`, `subtitle = false`).
     let edited = CONFIG
         .replace(
             "[outputs]\nrender_poses = 1\n",
-            "[outputs]\nrender_poses = 1\ntitle = false\nsubtitle = false\n",
+            "[outputs]\nrender_poses = 1\ntitle = true\nsubtitle = true\n",
         )
         .replace(
             "metrics = [\"err_mean_unit\", \"err_rms_unit\"]\n",
-            "metrics = [\"err_mean_unit\", \"err_rms_unit\"]\ntitle = true\n",
+            "metrics = [\"err_mean_unit\", \"err_rms_unit\"]\ntitle = false\nsubtitle = false\n",
         );
     let cfg = write(t.path(), "edited.toml", &edited);
     ok(&[
@@ -268,9 +270,29 @@ fn title_and_subtitle_can_be_switched_off() {
         cfg.to_str().unwrap(),
     ]);
     let texts = svg_texts(&copy.join("plots/cumulative.svg"));
-    assert!(!texts.iter().any(|t| t == TITLE), "{texts:?}");
-    assert!(!texts.iter().any(|t| t.starts_with(CAPTION)), "{texts:?}");
+    assert!(texts.iter().any(|t| t == TITLE), "{texts:?}");
+    assert!(texts.iter().any(|t| t.starts_with(CAPTION)), "{texts:?}");
     assert!(texts.iter().any(|t| t == "BDT (automatic)"), "legend kept");
+    let bars = svg_texts(&copy.join("plots/bars_err_mean_unit_err_rms_unit.svg"));
+    assert!(
+        !bars
+            .iter()
+            .any(|t| t == "paper: err_mean_unit, err_rms_unit"),
+        "{bars:?}"
+    );
+    assert!(!bars.iter().any(|t| t.starts_with(CAPTION)), "{bars:?}");
+    // A plot's own `title = true` draws its title with `[outputs]` silent.
+    let one = CONFIG.replace(
+        "metrics = [\"err_mean_unit\", \"err_rms_unit\"]\n",
+        "metrics = [\"err_mean_unit\", \"err_rms_unit\"]\ntitle = true\n",
+    );
+    let cfg = write(t.path(), "one.toml", &one);
+    ok(&[
+        "plot",
+        copy.to_str().unwrap(),
+        "--config",
+        cfg.to_str().unwrap(),
+    ]);
     let bars = svg_texts(&copy.join("plots/bars_err_mean_unit_err_rms_unit.svg"));
     assert!(
         bars.iter()
@@ -278,6 +300,8 @@ fn title_and_subtitle_can_be_switched_off() {
         "{bars:?}"
     );
     assert!(!bars.iter().any(|t| t.starts_with(CAPTION)), "{bars:?}");
+    let texts = svg_texts(&copy.join("plots/cumulative.svg"));
+    assert!(!texts.iter().any(|t| t == TITLE), "{texts:?}");
     // The chart is taller where the header was: the PNG is the same size,
     // the PDF converts.
     assert_pdf(&copy.join("plots/cumulative.pdf"));

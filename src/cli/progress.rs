@@ -8,13 +8,23 @@
 use std::io::IsTerminal;
 use std::sync::Arc;
 
-use deformlab::solve::progress::{install, step_message, Heartbeat, ProgressSink, SinkGuard};
+use deformlab::solve::progress::{
+    fit_to_width, install, step_message, terminal_columns, Heartbeat, ProgressSink, SinkGuard,
+};
 
 struct Spinner(indicatif::ProgressBar);
 
+/// Columns of the spinner line besides the step: the spinner, spaces and
+/// ` [1h 23m 45s]`.
+const SPINNER_RESERVE: usize = 16;
+
 impl ProgressSink for Spinner {
     fn update(&self, step: &str, done: usize, total: usize) {
-        self.0.set_message(step_message(step, done, total));
+        // Fitted here, at a word, with an ellipsis: indicatif would cut the
+        // message at the terminal's edge mid-word.
+        let width = terminal_columns().saturating_sub(SPINNER_RESERVE);
+        self.0
+            .set_message(fit_to_width(&step_message(step, done, total), width));
     }
 }
 

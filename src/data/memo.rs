@@ -58,10 +58,34 @@ pub(crate) fn take_waited(restore: f64) -> f64 {
     WAITED.with(|w| w.replace(restore))
 }
 
-/// One entry of a [`Memo`]: filled once by the caller that computes it.
+/// One entry of a [`Memo`]: filled once by the caller that computes it,
+/// with the seconds that computation took.
 struct Slot<T> {
-    value: std::sync::OnceLock<Arc<T>>,
+    value: std::sync::OnceLock<(Arc<T>, f64)>,
     failed: std::sync::atomic::AtomicBool,
+}
+
+/// What [`Memo::get_or_costed`] returns.
+pub(crate) struct Fetched<T> {
+    pub(crate) value: Arc<T>,
+    /// Seconds spent waiting for another caller's computation.
+    pub(crate) waited: f64,
+    /// Seconds of the computation that produced `value`: this caller's,
+    /// or, when `reused`, the earlier caller's that filled the memo.
+    pub(crate) computed: f64,
+    /// Whether `value` was computed by an earlier caller (a memo hit).
+    pub(crate) reused: bool,
+}
+
+impl<T> Fetched<T> {
+    fn own(v: T, computed: f64, waited: f64) -> Self {
+        Fetched {
+            value: Arc::new(v),
+            waited,
+            computed,
+            reused: false,
+        }
+    }
 }
 
 /// The map behind a [`Memo`].
@@ -88,11 +112,31 @@ impl<T> Memo<T> {
         key: (u64, String),
         f: impl FnOnce() -> Result<T>,
     ) -> Result<(Arc<T>, f64)> {
+        let got = self.get_or_costed(key, f)?;
+        Ok((got.value, got.waited))
+    }
+
+    /// [`Memo::get_or_timed`] with what the result cost: the seconds of
+    /// the computation that produced it (this caller's, or the one whose
+    /// result it reuses) and whether it was reused.
+    pub(crate) fn get_or_costed(
+        &self,
+        key: (u64, String),
+        f: impl FnOnce() -> Result<T>,
+    ) -> Result<Fetched<T>> {
         use std::sync::atomic::Ordering;
+        let computed = |f: &mut dyn FnMut() -> Result<T>| -> Result<(T, f64)> {
+            let t = std::time::Instant::now();
+            let v = f()?;
+            Ok((v, t.elapsed().as_secs_f64()))
+        };
+        let mut f = Some(f);
+        let mut run = || (f.take().expect("computed once"))();
         let memo = self.0.get_or_init(Default::default);
         let (slot, mine) = {
             let Ok(mut m) = memo.lock() else {
-                return Ok((Arc::new(f()?), 0.0));
+                let (v, secs) = computed(&mut run)?;
+                return Ok(Fetched::own(v, secs, 0.0));
             };
             match m.get(&key) {
                 Some(s) => (s.clone(), false),
@@ -120,8 +164,16 @@ impl<T> Memo<T> {
                 }
             }
             let _guard = Unwind(&slot);
-            return match f() {
-                Ok(v) => Ok((slot.value.get_or_init(|| Arc::new(v)).clone(), 0.0)),
+            return match computed(&mut run) {
+                Ok((v, secs)) => {
+                    let (v, secs) = slot.value.get_or_init(|| (Arc::new(v), secs)).clone();
+                    Ok(Fetched {
+                        value: v,
+                        waited: 0.0,
+                        computed: secs,
+                        reused: false,
+                    })
+                }
                 Err(e) => {
                     // Forget the entry (a later call tries again) and let
                     // the waiters compute for themselves.
@@ -140,12 +192,18 @@ impl<T> Memo<T> {
             w
         };
         loop {
-            if let Some(v) = slot.value.get() {
-                return Ok((v.clone(), waited()));
+            if let Some((v, secs)) = slot.value.get() {
+                return Ok(Fetched {
+                    value: v.clone(),
+                    waited: waited(),
+                    computed: *secs,
+                    reused: true,
+                });
             }
             if slot.failed.load(Ordering::Acquire) {
                 let w = waited();
-                return Ok((Arc::new(f()?), w));
+                let (v, secs) = computed(&mut run)?;
+                return Ok(Fetched::own(v, secs, w));
             }
             match rayon::yield_now() {
                 Some(rayon::Yield::Executed) => {}

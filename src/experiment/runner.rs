@@ -303,7 +303,15 @@ impl crate::solve::progress::ProgressSink for StepSink {
     fn update(&self, step: &str, done: usize, total: usize) {
         ROW_BAR.with(|b| {
             if let Some(bar) = &*b.borrow() {
-                bar.set_message(crate::solve::progress::step_message(step, done, total));
+                // The row bar's other parts: the prefix, `[bar:30]`,
+                // `pos/len` and ` elapsed 1h 23m 45s ETA 123 min`.
+                let digits = bar.length().unwrap_or(0).max(1).ilog10() as usize + 1;
+                let reserve = bar.prefix().chars().count() + 33 + 2 * digits + 1 + 34;
+                let width = crate::solve::progress::terminal_columns().saturating_sub(reserve);
+                bar.set_message(crate::solve::progress::fit_to_width(
+                    &crate::solve::progress::step_message(step, done, total),
+                    width,
+                ));
             }
         });
     }

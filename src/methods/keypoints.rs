@@ -8,7 +8,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::data::memo::{meshes_hash, Memo};
+use crate::data::memo::{meshes_hash, Fetched, Memo};
 use crate::mesh::Mesh;
 use crate::ops::geodesic::EdgeGraph;
 use crate::ops::Operators;
@@ -77,6 +77,11 @@ pub struct PickedKeypoints {
     /// time spent waiting for a selection another case was computing is
     /// not counted).
     pub seconds: f64,
+    /// What the key points cost: `seconds`, except for a selection reused
+    /// from the memo (selected earlier in this process for the same source
+    /// and options), where it is the seconds of the selection that filled
+    /// the memo.
+    pub seconds_computed: f64,
 }
 
 impl KeypointSource {
@@ -91,11 +96,16 @@ impl KeypointSource {
     ) -> Result<PickedKeypoints> {
         let t = Instant::now();
         let mut waited = 0.0;
+        let mut reused_cost = None;
         let (keypoints, selection) = match self {
             KeypointSource::Automatic { selection_poses } => {
                 let k = selection_poses.unwrap_or(a_def.len()).min(a_def.len());
-                let (sel, w) = memo_select(a, &a_def[..k], opts)?;
-                waited = w;
+                let got = memo_select(a, &a_def[..k], opts)?;
+                waited = got.waited;
+                if got.reused {
+                    reused_cost = Some(got.computed);
+                }
+                let sel = got.value;
                 (sel.keypoints.clone(), Some((sel, k)))
             }
             KeypointSource::Random { count, seed, pool } => (
@@ -121,10 +131,12 @@ impl KeypointSource {
                 (v.clone(), None)
             }
         };
+        let seconds = (t.elapsed().as_secs_f64() - waited).max(0.0);
         Ok(PickedKeypoints {
             keypoints,
             selection,
-            seconds: (t.elapsed().as_secs_f64() - waited).max(0.0),
+            seconds,
+            seconds_computed: reused_cost.unwrap_or(seconds),
         })
     }
 }
@@ -133,18 +145,19 @@ impl KeypointSource {
 /// meshes and the options: configs that repeat one selection in many rows
 /// (e.g. `auto-noise.toml`: one per noise level and seed) select once. The
 /// selection is deterministic, so a memoised result equals a recomputed one.
-/// Also returns the seconds spent waiting for another caller's selection.
+/// Also returns the seconds spent waiting for another caller's selection
+/// and what the selection cost when it was made.
 fn memo_select(
     a: &Mesh,
     a_def: &[Mesh],
     opts: &KeypointOptions,
-) -> Result<(Arc<KeypointSelection>, f64)> {
+) -> Result<Fetched<KeypointSelection>> {
     static MEMO: Memo<KeypointSelection> = Memo::new();
     let key = (
         meshes_hash(std::iter::once(a).chain(a_def)),
         format!("{opts:?}"),
     );
-    MEMO.get_or_timed(key, || select_keypoints(a, a_def, opts))
+    MEMO.get_or_costed(key, || select_keypoints(a, a_def, opts))
 }
 
 /// [`fit_keypoints`], memoised like [`memo_select`]: rows that fit the same
@@ -167,12 +180,25 @@ pub fn memo_fit_timed(
     keypoints: &[usize],
     opts: &KeypointOptions,
 ) -> Result<(Arc<KeypointFit>, f64)> {
+    let (fit, waited, _) = memo_fit_costed(a, a_def, keypoints, opts)?;
+    Ok((fit, waited))
+}
+
+/// [`memo_fit_timed`] and what the fit cost: `None` when this call
+/// computed it, else the seconds of the fit that filled the memo.
+pub fn memo_fit_costed(
+    a: &Mesh,
+    a_def: &[Mesh],
+    keypoints: &[usize],
+    opts: &KeypointOptions,
+) -> Result<(Arc<KeypointFit>, f64, Option<f64>)> {
     static MEMO: Memo<KeypointFit> = Memo::new();
     let key = (
         meshes_hash(std::iter::once(a).chain(a_def)),
         format!("{keypoints:?} {opts:?}"),
     );
-    MEMO.get_or_timed(key, || fit_keypoints(a, a_def, keypoints, opts))
+    let got = MEMO.get_or_costed(key, || fit_keypoints(a, a_def, keypoints, opts))?;
+    Ok((got.value, got.waited, got.reused.then_some(got.computed)))
 }
 
 /// `count` random key points: among the FPS candidates (`n_candidates`,

@@ -6,7 +6,7 @@
 use std::time::Instant;
 
 use super::external::ExternalRunner;
-use super::keypoints::{memo_fit_timed, KeypointSource, PickedKeypoints};
+use super::keypoints::{memo_fit_costed, KeypointSource, PickedKeypoints};
 use super::target::{TargetFound, TargetPoints};
 use crate::arap::ArapOptions;
 use crate::baselines::{
@@ -152,6 +152,10 @@ pub struct TransferCase<'a> {
 pub struct TransferTimings {
     /// Fit of the key point transforms on A (BDT).
     pub fit: Option<f64>,
+    /// What the fit cost: `fit`, except for a fit reused from the memo
+    /// (made earlier in this process for the same source, key points and
+    /// options), where it is the seconds of the fit that filled the memo.
+    pub fit_computed: Option<f64>,
     /// Weights on B (BDT).
     pub weights: Option<f64>,
     /// LBS of all poses (BDT).
@@ -291,8 +295,8 @@ impl TransferMethod {
             } => {
                 let picked = keypoints.pick(a, a_def, &options.keypoints)?;
                 let t = Instant::now();
-                let (fit, waited) =
-                    memo_fit_timed(a, a_def, &picked.keypoints, &options.keypoints)?;
+                let (fit, waited, reused_cost) =
+                    memo_fit_costed(a, a_def, &picked.keypoints, &options.keypoints)?;
                 let fit = (*fit).clone();
                 let seconds_fit = (t.elapsed().as_secs_f64() - waited).max(0.0);
                 let found = target.find(a, b, &picked.keypoints)?;
@@ -321,6 +325,7 @@ impl TransferMethod {
                 out.frames_differ = registration_frame.map(|r| r.frames_differ());
                 out.timings = TransferTimings {
                     fit: Some(seconds_fit),
+                    fit_computed: Some(reused_cost.unwrap_or(seconds_fit)),
                     weights: Some(tr.seconds_weights),
                     lbs: Some(tr.seconds_lbs),
                     refine: Some(tr.seconds_refine),

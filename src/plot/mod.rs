@@ -8,7 +8,10 @@
 //! - [`save_line_chart`], [`save_bar_chart`]: 1200 × 800 PNG (2×
 //!   supersampled), SVG and PDF, written atomically; see [`charts`] for
 //!   layout. The `_as` variants ([`save_line_chart_as`], …) write the
-//!   [`Formats`] asked for.
+//!   [`Formats`] asked for; the `_styled` ones ([`save_line_chart_styled`],
+//!   …) also take a [`ChartStyle`]: size in inches, text in points, PNG
+//!   resolution ([`ChartStyle::PAPER`]: 3.3 × 2.5 in, 8 pt, 300 dpi, the
+//!   experiments' default).
 //! - [`save_line_panels`]: several line charts side by side in one figure
 //!   with a shared legend ([`LinePanels`]).
 //! - [`save_table`]: a table (timings) as PNG, SVG and PDF sized to its
@@ -45,7 +48,29 @@ use std::path::Path;
 
 use crate::{Mesh, Result};
 
-pub use charts::{bar_chart_image, line_chart_image, line_panels_image, CHART_SIZE};
+pub use charts::{
+    ChartStyle, CHART_SIZE, DEFAULT_CHART_HEIGHT_IN, DEFAULT_CHART_WIDTH_IN, DEFAULT_DPI,
+    DEFAULT_FONT_PT,
+};
+
+/// Size of one panel of [`save_line_panels`] (pixels, [`ChartStyle::pixels`]).
+pub const PANEL_SIZE: (u32, u32) = (760, 640);
+
+/// The PNG rendering of a line chart ([`CHART_SIZE`]) without writing it.
+pub fn line_chart_image(chart: &LineChart) -> Result<Image> {
+    charts::line_chart_image(chart, &ChartStyle::SCREEN)
+}
+
+/// The PNG rendering of a bar chart ([`CHART_SIZE`]) without writing it.
+pub fn bar_chart_image(chart: &BarChart) -> Result<Image> {
+    charts::bar_chart_image(chart, &ChartStyle::SCREEN)
+}
+
+/// The PNG rendering of a [`LinePanels`] figure ([`PANEL_SIZE`] a panel)
+/// without writing it.
+pub fn line_panels_image(figure: &LinePanels) -> Result<Image> {
+    charts::line_panels_image(figure, &ChartStyle::pixels(PANEL_SIZE.0, PANEL_SIZE.1))
+}
 pub use demo::demo;
 pub use figure::{
     figure_svg, render_figure, save_figure_as, save_figure_with, DEFAULT_PANEL_SIZE,
@@ -121,7 +146,19 @@ pub fn save_line_panels(figure: &LinePanels, stem: &Path) -> Result<()> {
 
 /// [`save_line_panels`] in the chosen formats.
 pub fn save_line_panels_as(figure: &LinePanels, stem: &Path, formats: Formats) -> Result<()> {
-    charts::save_line_panels(figure, stem, formats)
+    let style = ChartStyle::pixels(PANEL_SIZE.0, PANEL_SIZE.1);
+    charts::save_line_panels(figure, stem, formats, &style)
+}
+
+/// [`save_line_panels_as`] with each panel of the size of `style` (its
+/// text size, its resolution).
+pub fn save_line_panels_styled(
+    figure: &LinePanels,
+    stem: &Path,
+    formats: Formats,
+    style: &ChartStyle,
+) -> Result<()> {
+    charts::save_line_panels(figure, stem, formats, style)
 }
 
 /// A grouped bar chart: one group per category, one bar per series.
@@ -153,7 +190,18 @@ pub fn save_line_chart(chart: &LineChart, stem: &Path) -> Result<()> {
 
 /// [`save_line_chart`] in the chosen formats.
 pub fn save_line_chart_as(chart: &LineChart, stem: &Path, formats: Formats) -> Result<()> {
-    charts::save_line_chart(chart, stem, formats)
+    charts::save_line_chart(chart, stem, formats, &ChartStyle::SCREEN)
+}
+
+/// [`save_line_chart_as`] at the physical size, text size and resolution
+/// of `style` (e.g. [`ChartStyle::PAPER`]).
+pub fn save_line_chart_styled(
+    chart: &LineChart,
+    stem: &Path,
+    formats: Formats,
+    style: &ChartStyle,
+) -> Result<()> {
+    charts::save_line_chart(chart, stem, formats, style)
 }
 
 /// Writes `stem.png`, `stem.svg` and `stem.pdf` (atomically).
@@ -165,7 +213,17 @@ pub fn save_bar_chart(chart: &BarChart, stem: &Path) -> Result<()> {
 
 /// [`save_bar_chart`] in the chosen formats.
 pub fn save_bar_chart_as(chart: &BarChart, stem: &Path, formats: Formats) -> Result<()> {
-    charts::save_bar_chart(chart, stem, formats)
+    charts::save_bar_chart(chart, stem, formats, &ChartStyle::SCREEN)
+}
+
+/// [`save_bar_chart_as`] in `style` (see [`save_line_chart_styled`]).
+pub fn save_bar_chart_styled(
+    chart: &BarChart,
+    stem: &Path,
+    formats: Formats,
+    style: &ChartStyle,
+) -> Result<()> {
+    charts::save_bar_chart(chart, stem, formats, style)
 }
 
 /// A table drawn as a figure (timings, ablation numbers): a header row in
@@ -190,7 +248,18 @@ pub fn save_table(table: &Table, stem: &Path) -> Result<()> {
 
 /// [`save_table`] in the chosen formats.
 pub fn save_table_as(table: &Table, stem: &Path, formats: Formats) -> Result<()> {
-    charts::save_table(table, stem, formats)
+    charts::save_table(table, stem, formats, &ChartStyle::SCREEN)
+}
+
+/// [`save_table_as`] with the text size and resolution of `style` (the
+/// size follows the content).
+pub fn save_table_styled(
+    table: &Table,
+    stem: &Path,
+    formats: Formats,
+    style: &ChartStyle,
+) -> Result<()> {
+    charts::save_table(table, stem, formats, style)
 }
 
 /// Viewing direction of a render (orthographic camera looking at the

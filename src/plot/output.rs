@@ -207,12 +207,33 @@ pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 
 /// The PNG encoding of `image` (8-bit RGB), in memory.
 pub fn encode_png(image: &Image) -> Result<Vec<u8>> {
+    encode_png_dpi(image, None)
+}
+
+/// [`encode_png`] with the resolution recorded (a `pHYs` chunk, pixels
+/// per metre) when `dpi` is given, so that a document or viewer places the
+/// image at its physical size.
+pub fn encode_png_dpi(image: &Image, dpi: Option<f64>) -> Result<Vec<u8>> {
     let mut out = Vec::new();
     let fail = |e: png::EncodingError| Error::invalid(format!("PNG encoding failed: {e}"));
+    if image.width == 0 || image.height == 0 {
+        return Err(Error::invalid(format!(
+            "image of size {}×{} cannot be written",
+            image.width, image.height
+        )));
+    }
     {
         let mut enc = png::Encoder::new(&mut out, image.width, image.height);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
+        if let Some(dpi) = dpi.filter(|d| d.is_finite() && *d > 0.0) {
+            let ppm = (dpi / 0.0254).round() as u32;
+            enc.set_pixel_dims(Some(png::PixelDimensions {
+                xppu: ppm,
+                yppu: ppm,
+                unit: png::Unit::Meter,
+            }));
+        }
         let mut w = enc.write_header().map_err(fail)?;
         w.write_image_data(&image.rgb).map_err(fail)?;
         w.finish().map_err(fail)?;

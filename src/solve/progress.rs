@@ -103,6 +103,70 @@ pub fn step_message(step: &str, done: usize, total: usize) -> String {
     }
 }
 
+/// Columns of a terminal line when none can be measured.
+pub const DEFAULT_COLUMNS: usize = 80;
+
+/// The width of the progress lines in columns: stderr's terminal width when
+/// stderr is a terminal; else a positive whole number in the environment
+/// variable `COLUMNS` when set; else [`DEFAULT_COLUMNS`].
+pub fn terminal_columns() -> usize {
+    let env = std::env::var("COLUMNS").ok();
+    columns_from(
+        console::Term::stderr()
+            .size_checked()
+            .map(|(_, c)| c as usize),
+        env.as_deref(),
+    )
+}
+
+/// [`terminal_columns`] from the measured terminal width and `COLUMNS`.
+fn columns_from(terminal: Option<usize>, env: Option<&str>) -> usize {
+    terminal
+        .filter(|&c| c > 0)
+        .or_else(|| {
+            env.and_then(|v| v.trim().parse::<usize>().ok())
+                .filter(|&c| c > 0)
+        })
+        .unwrap_or(DEFAULT_COLUMNS)
+}
+
+/// `text` fitted into `width` columns (as a terminal shows it, wide
+/// characters counting two): unchanged if it fits; else cut after the last
+/// whole word that leaves room for an ellipsis `…`, or mid-word when the
+/// first word alone is too wide (or the last word break would drop more
+/// than half the line).
+pub fn fit_to_width(text: &str, width: usize) -> String {
+    use console::measure_text_width as w;
+    if w(text) <= width {
+        return text.to_string();
+    }
+    if width == 0 {
+        return String::new();
+    }
+    // The longest prefix of whole characters that leaves a column for `…`.
+    let room = width - 1;
+    let mut end = 0;
+    for (i, ch) in text.char_indices() {
+        let next = i + ch.len_utf8();
+        if w(&text[..next]) > room {
+            break;
+        }
+        end = next;
+    }
+    let cut = &text[..end];
+    // Back to the last word break when the text is cut inside a word.
+    let inside_word = text[end..]
+        .chars()
+        .next()
+        .is_some_and(|c| !c.is_whitespace())
+        && cut.chars().last().is_some_and(|c| !c.is_whitespace());
+    let kept = match cut.rfind(char::is_whitespace) {
+        Some(b) if inside_word && w(&cut[..b]) * 2 >= room => &cut[..b],
+        _ => cut,
+    };
+    format!("{}…", kept.trim_end())
+}
+
 impl ProgressSink for Beat {
     fn update(&self, step: &str, done: usize, total: usize) {
         let msg = step_message(step, done, total);
@@ -203,5 +267,40 @@ impl Drop for Heartbeat {
         if let Some(t) = self.thread.take() {
             let _ = t.join();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fitting_keeps_short_text_and_cuts_long_text_at_a_word() {
+        assert_eq!(fit_to_width("key points 3/8", 80), "key points 3/8");
+        assert_eq!(fit_to_width("abc", 3), "abc");
+        let long = "key points: stage 1, 3 → 4 key points, candidate 17 of 24";
+        let fit = fit_to_width(long, 30);
+        assert_eq!(fit, "key points: stage 1, 3 → 4…");
+        assert!(console::measure_text_width(&fit) <= 30);
+        // A break at a space is kept whole ("stage 1," not "stage 1, 3").
+        assert_eq!(fit_to_width("one two three", 9), "one two…");
+        // One long word: cut inside it.
+        assert_eq!(fit_to_width("abcdefghij", 5), "abcd…");
+        // A break that would drop more than half the line: cut inside the word.
+        assert_eq!(fit_to_width("a bcdefghijklmnop", 10), "a bcdefgh…");
+        assert_eq!(fit_to_width("abc", 0), "");
+        assert_eq!(fit_to_width("abc", 1), "…");
+        // Wide characters count two columns.
+        let wide = fit_to_width("漢字漢字漢字", 7);
+        assert!(console::measure_text_width(&wide) <= 7, "{wide}");
+    }
+
+    #[test]
+    fn columns_come_from_the_terminal_then_columns_then_80() {
+        assert_eq!(columns_from(Some(132), Some("100")), 132);
+        assert_eq!(columns_from(None, Some("100")), 100);
+        assert_eq!(columns_from(None, Some(" 0")), DEFAULT_COLUMNS);
+        assert_eq!(columns_from(None, Some("wide")), DEFAULT_COLUMNS);
+        assert_eq!(columns_from(None, None), DEFAULT_COLUMNS);
     }
 }

@@ -54,8 +54,8 @@
 //!
 //! [outputs]                     # output-only: not part of the config hash
 //! render_cases = 1
-//! title = false                 # no plot titles (or a text: the title prefix)
-//! subtitle = false              # no provenance line under the titles
+//! title = true                  # plot titles (default false; a text: the title prefix)
+//! subtitle = true               # provenance line under the titles (default false)
 //! formats = ["png", "pdf"]      # charts and renders (default: charts png, svg, pdf; renders png)
 //! up = "z"                      # render up axis (default: "z" for [dataset.tosca], else "y")
 //! max_per_row = 6               # render panels per row (0: one row)
@@ -100,7 +100,9 @@ mod read;
 pub use crate::methods::registry::{Method, NamedMethod};
 pub use crate::methods::registry::{MethodEntry, MethodKind, PipelineSpec};
 pub use crate::methods::spec::{Epsilon, FbtSpec, FbtTask, MaxKeypoints, NCandidates};
-use crate::range::{Degrees, Int, Positive, Real, RemeshRatio, Spread};
+use crate::range::{
+    ChartInches, Degrees, Dpi, FontPoints, Int, Positive, Real, RemeshRatio, Spread,
+};
 pub(crate) use checks::{check_dataset, check_outputs};
 pub(crate) use read::parse_unchecked_in;
 
@@ -378,13 +380,16 @@ impl MetricsSpec {
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct OutputSpec {
-    /// Titles of the plots: a text (the title prefix), `true` (default: the
-    /// experiment name as prefix) or `false` (no titles; a plot's own
-    /// `title` still wins).
+    /// Titles of the figures: `true` draws them ("<name>: ..."), `false`
+    /// (the default, [`DEFAULT_TITLES`]: a paper's figure has its caption)
+    /// does not; a text is the prefix of the default titles instead of the
+    /// experiment name (used by the Markdown and LaTeX tables, and by the
+    /// figures when a plot's `title = true`). A plot's own `title` wins.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub title: Option<TitleSpec>,
-    /// The provenance line under each title (data set, cases; default
-    /// true); `false` leaves it out (a plot's own `subtitle` still wins).
+    /// The provenance line (data set, cases) under each figure's title:
+    /// `true` draws it, `false` (the default, [`DEFAULT_SUBTITLES`]) does
+    /// not. A plot's own `subtitle` wins.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub subtitle: Option<bool>,
     /// Files of every chart and render: some of `"png"`, `"svg"`, `"pdf"`
@@ -392,6 +397,38 @@ pub struct OutputSpec {
     /// [`crate::plot::Formats::CHARTS`], [`crate::plot::Formats::RENDERS`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub formats: Option<Vec<FileFormat>>,
+    /// Width of a chart (line, bar; one panel of `curve_panels`), inches
+    /// (default [`crate::plot::DEFAULT_CHART_WIDTH_IN`]: one column).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Real::<ChartInches>::de"
+    )]
+    pub chart_width_in: Option<f64>,
+    /// Height of a chart, inches (default
+    /// [`crate::plot::DEFAULT_CHART_HEIGHT_IN`]).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Real::<ChartInches>::de"
+    )]
+    pub chart_height_in: Option<f64>,
+    /// Text of charts and table figures (tick labels, legends, table
+    /// cells), points (default [`crate::plot::DEFAULT_FONT_PT`]).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Real::<FontPoints>::de"
+    )]
+    pub font_pt: Option<f64>,
+    /// Pixels per inch of the charts' and table figures' PNGs (default
+    /// [`crate::plot::DEFAULT_DPI`]).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "Real::<Dpi>::de"
+    )]
+    pub dpi: Option<f64>,
     /// Cases (first in case order) whose meshes are saved for renders (default 1).
     #[serde(
         default,
@@ -436,7 +473,43 @@ pub struct OutputSpec {
     pub plots: Vec<PlotSpec>,
 }
 
+/// Whether figures draw their titles when `[outputs] title` is absent or a
+/// text: no (`title = true` turns them on).
+pub const DEFAULT_TITLES: bool = false;
+/// Whether figures draw the provenance line when `[outputs] subtitle` is
+/// absent: no (`subtitle = true` turns it on).
+pub const DEFAULT_SUBTITLES: bool = false;
+
 impl OutputSpec {
+    /// Whether figures without a `title` of their own draw a title:
+    /// `[outputs] title = true` or `false`, else [`DEFAULT_TITLES`] (a
+    /// text only names the titles).
+    pub fn titles(&self) -> bool {
+        match &self.title {
+            Some(TitleSpec::Show(b)) => *b,
+            _ => DEFAULT_TITLES,
+        }
+    }
+
+    /// Whether figures without a `subtitle` of their own draw the
+    /// provenance line: `[outputs] subtitle`, else [`DEFAULT_SUBTITLES`].
+    pub fn subtitles(&self) -> bool {
+        self.subtitle.unwrap_or(DEFAULT_SUBTITLES)
+    }
+
+    /// The size, text and resolution of the charts and table figures:
+    /// `chart_width_in`, `chart_height_in`, `font_pt`, `dpi`, each
+    /// defaulting to [`crate::plot::ChartStyle::PAPER`]'s.
+    pub fn chart_style(&self) -> crate::plot::ChartStyle {
+        let d = crate::plot::ChartStyle::PAPER;
+        crate::plot::ChartStyle {
+            width_in: self.chart_width_in.unwrap_or(d.width_in),
+            height_in: self.chart_height_in.unwrap_or(d.height_in),
+            font_pt: self.font_pt.unwrap_or(d.font_pt),
+            dpi: self.dpi.unwrap_or(d.dpi),
+        }
+    }
+
     pub fn render_cases(&self) -> usize {
         self.render_cases.unwrap_or(1)
     }
@@ -601,9 +674,11 @@ pub struct PlotSpec {
     /// File stem under plots/ (default: the kind's name).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub file: Option<String>,
-    /// Title: a text, `false` (none) or `true` (the default title, from
-    /// the kind and the experiment, even when `[outputs] title = false`).
-    /// Default: as `[outputs] title` says.
+    /// Title: `true` (drawn: the default title, from the kind and the
+    /// experiment, even when `[outputs]` has no titles), `false` (none) or
+    /// a text (this plot's title: in its Markdown and LaTeX files, and on
+    /// the figure when `[outputs] title = true`). Default: as `[outputs]
+    /// title` says.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub title: Option<TitleSpec>,
     /// The provenance line under the title (default: `[outputs] subtitle`).

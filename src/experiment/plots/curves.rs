@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 
 use super::{f, Ctx, Row};
 use crate::experiment::config::{PlotSpec, TitleSpec};
-use crate::plot::{save_line_chart_as, save_line_panels_as, LineChart, LinePanels, Series};
+use crate::plot::{save_line_chart_styled, save_line_panels_styled, LineChart, LinePanels, Series};
 use crate::{Error, Result};
 
 /// Cumulative curves of every method group (see the module documentation):
@@ -113,7 +113,12 @@ pub(super) fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_default()
         ));
-        save_line_chart_as(&chart, &stem, ctx.config.outputs.chart_formats(spec))?;
+        save_line_chart_styled(
+            &chart,
+            &stem,
+            ctx.config.outputs.chart_formats(spec),
+            &ctx.config.outputs.chart_style(),
+        )?;
     }
     Ok(())
 }
@@ -284,10 +289,11 @@ pub(super) fn curve_panels(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         ),
         panels,
     };
-    save_line_panels_as(
+    save_line_panels_styled(
         &fig,
         &ctx.stem(spec, "curve_panels"),
         ctx.config.outputs.chart_formats(spec),
+        &ctx.config.outputs.chart_style(),
     )?;
     if !missing.is_empty() {
         return Err(Error::invalid(format!(

@@ -4,7 +4,7 @@
 use super::{column_label, f, metric_label, Ctx};
 use crate::experiment::config::PlotSpec;
 use crate::experiment::store::describe;
-use crate::plot::{save_bar_chart_as, save_line_chart_as, BarChart, LineChart, Series};
+use crate::plot::{save_bar_chart_styled, save_line_chart_styled, BarChart, LineChart, Series};
 use crate::{Error, Result};
 
 fn group_stats(ctx: &Ctx, g: &str, col: &str) -> Option<(f64, f64)> {
@@ -12,6 +12,25 @@ fn group_stats(ctx: &Ctx, g: &str, col: &str) -> Option<(f64, f64)> {
         .rows_of_group(g)
         .iter()
         .filter_map(|r| f(r, col))
+        .collect();
+    if v.is_empty() {
+        return None;
+    }
+    let (mean, std, ..) = describe(&v);
+    Some((mean, std))
+}
+
+/// [`group_stats`] of a timing column, each row's memo-aware cost where it
+/// has one: `seconds_selection` and `seconds_fit` of a row that reused a
+/// memoised selection or fit are a few milliseconds, and their
+/// `_computed` twins hold what the reused result cost when it was made
+/// (rows recorded before those columns existed keep their own times).
+fn cost_stats(ctx: &Ctx, g: &str, col: &str) -> Option<(f64, f64)> {
+    let computed = format!("{col}_computed");
+    let v: Vec<f64> = ctx
+        .rows_of_group(g)
+        .iter()
+        .filter_map(|r| f(r, &computed).or_else(|| f(r, col)))
         .collect();
     if v.is_empty() {
         return None;
@@ -92,10 +111,11 @@ pub(super) fn bars(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         log_y: spec.log_y.unwrap_or(false),
     };
     let default = format!("bars_{}", spec.metrics.join("_"));
-    save_bar_chart_as(
+    save_bar_chart_styled(
         &chart,
         &ctx.stem(spec, &default),
         ctx.config.outputs.chart_formats(spec),
+        &ctx.config.outputs.chart_style(),
     )
 }
 
@@ -173,10 +193,11 @@ pub(super) fn trace(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         floor: None,
         ..Default::default()
     };
-    save_line_chart_as(
+    save_line_chart_styled(
         &chart,
         &ctx.stem(spec, "trace"),
         ctx.config.outputs.chart_formats(spec),
+        &ctx.config.outputs.chart_style(),
     )
 }
 
@@ -261,10 +282,11 @@ pub(super) fn line(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         floor: None,
         ..Default::default()
     };
-    save_line_chart_as(
+    save_line_chart_styled(
         &chart,
         &ctx.stem(spec, &format!("line_{x}")),
         ctx.config.outputs.chart_formats(spec),
+        &ctx.config.outputs.chart_style(),
     )
 }
 
@@ -286,7 +308,7 @@ pub(super) fn timing(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         // nothing to show on these axes.
         .filter(|g| {
             group_stats(ctx, g, "seconds_total").is_some()
-                && cols.iter().any(|(c, _)| group_stats(ctx, g, c).is_some())
+                && cols.iter().any(|(c, _)| cost_stats(ctx, g, c).is_some())
         })
         .collect();
     if groups.is_empty() {
@@ -297,7 +319,7 @@ pub(super) fn timing(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
          |---|---|---|---|---|---|---|---|\n",
     );
     for g in &groups {
-        let s = |c: &str| group_stats(ctx, g, c).map(|x| x.0);
+        let s = |c: &str| cost_stats(ctx, g, c).map(|x| x.0);
         let fmt = |x: Option<f64>, k: f64, d: usize| {
             x.map_or("–".to_string(), |v| format!("{:.*}", d, v * k))
         };
@@ -313,14 +335,19 @@ pub(super) fn timing(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             fmt(s("seconds_total"), 1.0, 2),
         ));
     }
-    md.push_str(&format!("\nMeans over cases. {}\n", ctx.caption));
+    md.push_str(&format!(
+        "\nMeans over cases. A key point selection or fit made once and reused by \
+         later rows counts what it cost when made (`seconds_selection_computed`, \
+         `seconds_fit_computed`). {}\n",
+        ctx.caption
+    ));
     let stem = ctx.stem(spec, "timing");
     crate::experiment::store::write_file(&stem.with_extension("md"), md.as_bytes(), true)?;
     let mut series = Vec::new();
     for (c, label) in cols {
         let v: Vec<f64> = groups
             .iter()
-            .map(|g| group_stats(ctx, g, c).map_or(0.0, |s| s.0.max(1e-6)))
+            .map(|g| cost_stats(ctx, g, c).map_or(0.0, |s| s.0.max(1e-6)))
             .collect();
         if v.iter().any(|x| *x > 1e-6) {
             series.push((label.to_string(), v));
@@ -335,5 +362,10 @@ pub(super) fn timing(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         errors: None,
         log_y: true,
     };
-    save_bar_chart_as(&chart, &stem, ctx.config.outputs.chart_formats(spec))
+    save_bar_chart_styled(
+        &chart,
+        &stem,
+        ctx.config.outputs.chart_formats(spec),
+        &ctx.config.outputs.chart_style(),
+    )
 }

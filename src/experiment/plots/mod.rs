@@ -35,7 +35,10 @@
 //! CSV (scaled means, 10 significant digits), Markdown and LaTeX.
 //!
 //! **Output settings** (`[outputs]`, per plot where noted): `title` /
-//! `subtitle` (on, off, or a text), `formats` (charts PNG + SVG + PDF,
+//! `subtitle` (off by default, [`super::config::DEFAULT_TITLES`]; `true`
+//! draws them, a title text names the plot), `chart_width_in`,
+//! `chart_height_in`, `font_pt`, `dpi` (the charts' [`crate::plot::ChartStyle`],
+//! default [`crate::plot::ChartStyle::PAPER`]), `formats` (charts PNG + SVG + PDF,
 //! renders PNG by default), `up` and `camera` of renders (default per data
 //! set, [`super::config::DatasetSpec::default_camera`]), `max_per_row`;
 //! method groups are shown by their methods' `label`, a plot's `labels` map
@@ -252,11 +255,13 @@ impl Ctx {
         dir.join(spec.file.clone().unwrap_or_else(|| default.to_string()))
     }
 
-    /// The title of a plot: `default()` unless the plot's `title` or
-    /// `[outputs] title` says otherwise ("" for none).
+    /// The title drawn on a figure ("" for none): the plot's `title = true`
+    /// draws `default()`, `false` nothing; a text, or no `title`, draws
+    /// (the text, else `default()`) when `[outputs]` turns titles on.
     fn title(&self, spec: &PlotSpec, default: impl FnOnce() -> String) -> String {
         match &spec.title {
-            Some(TitleSpec::Text(t)) => t.clone(),
+            Some(TitleSpec::Text(t)) if self.titles => t.clone(),
+            Some(TitleSpec::Text(_)) => String::new(),
             Some(TitleSpec::Show(false)) => String::new(),
             Some(TitleSpec::Show(true)) => default(),
             None if self.titles => default(),
@@ -389,8 +394,8 @@ pub fn make_plots_with(dir: &Path, config: Option<&LoadedConfig>) -> Result<Vec<
         Some(TitleSpec::Text(t)) => t.clone(),
         _ => config.name.clone(),
     };
-    let titles = config.outputs.title != Some(TitleSpec::Show(false));
-    let subtitles = config.outputs.subtitle.unwrap_or(true);
+    let titles = config.outputs.titles();
+    let subtitles = config.outputs.subtitles();
     let caption = format!("{}; {} case(s)", manifest.dataset, n_cases);
     let (group_labels, method_labels) = labels_of(&config);
     own_subdir(dir, "plots")?;

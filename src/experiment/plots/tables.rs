@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 
 use super::{f, metric_label, Ctx, Row};
 use crate::experiment::config::PlotSpec;
-use crate::plot::{save_table_as, Table};
+use crate::plot::{save_table_styled, Table};
 use crate::{Error, Result};
 
 /// A pivot table (see [`PlotKind::Pivot`]): `<file>.png` / `.svg` / `.csv`
@@ -184,7 +184,7 @@ pub(super) fn pivot(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         .into_inner()
         .map_err(|e| Error::invalid(format!("pivot CSV: {e}")))?;
     crate::experiment::store::write_file(&stem.with_extension("csv"), &bytes, true)?;
-    save_table_as(
+    save_table_styled(
         &Table {
             title,
             caption: ctx.subtitle(spec, caption),
@@ -193,6 +193,7 @@ pub(super) fn pivot(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
         },
         &stem,
         ctx.config.outputs.chart_formats(spec),
+        &ctx.config.outputs.chart_style(),
     )
 }
 

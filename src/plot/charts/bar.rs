@@ -9,12 +9,14 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::backend::{bitmap, render_chart, ChartDraw};
 use super::layout::{
-    draw_header, legend_size, log_range, place_legend, tick_formatter, to_px, wrap, y_label_area,
-    LegendEntry, LegendPos, Metrics, Rect, Swatch, Y_TICKS,
+    below_height, below_rows, draw_header, draw_legend_below, draw_y_lines, header_height,
+    legend_below, legend_size, log_range, outside_or_below, place_legend, tick_formatter, to_px,
+    wrap, y_desc_lines, y_label_area, y_lines_extra, LegendEntry, LegendPos, Metrics, Rect, Swatch,
+    Y_TICKS,
 };
-use super::{de, rgb, DResult, CHART_SIZE};
+use super::{de, rgb, ChartStyle, DResult};
 use crate::plot::axis::{Axis, Scale};
-use crate::plot::font::GlyphBackend;
+use crate::plot::font::{self, GlyphBackend};
 use crate::plot::output::{Formats, Image};
 use crate::plot::style::{series_style, MAX_PLAIN_SERIES};
 use crate::plot::BarChart;
@@ -104,11 +106,11 @@ pub(crate) fn prepare_bar(c: &BarChart, name: &str) -> Result<PreparedBar> {
 
 fn draw_bar_chart<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    c: &BarChart,
-    p: &PreparedBar,
+    job: &BarJob,
     legend: Option<LegendPos>,
     m: Metrics,
 ) -> DResult<Option<LegendPos>> {
+    let (c, p) = (job.chart, &job.prepared);
     root.fill(&WHITE).map_err(de)?;
     let header = draw_header(root, &c.title, c.caption.as_deref(), m)?;
     let (_, body) = root.split_vertically(header);
@@ -125,22 +127,43 @@ fn draw_bar_chart<DB: DrawingBackend>(
         })
         .collect();
     let lsize = legend_size(root, &entries, m)?;
-    let (plot_area, legend_x) = if legend == Some(LegendPos::Outside) {
-        let (bw, _) = body.dim_in_pixel();
-        let lw = (lsize.0 + m.px(24.0)) as u32;
-        let (a, _) = body.split_horizontally(bw.saturating_sub(lw));
-        (a, Some(bw.saturating_sub(lw) as f64 + m.px(8.0)))
-    } else {
-        (body.clone(), None)
+    let (bw, bh) = body.dim_in_pixel();
+    let legend = outside_or_below(legend, lsize, bw as f64, m);
+    let mut below = None;
+    let (plot_area, legend_x) = match legend {
+        Some(LegendPos::Outside) => {
+            let lw = (lsize.0 + m.px(24.0)) as u32;
+            let (a, _) = body.split_horizontally(bw.saturating_sub(lw));
+            (a, Some(bw.saturating_sub(lw) as f64 + m.px(8.0)))
+        }
+        Some(LegendPos::Below) => {
+            let labels: Vec<&str> = entries.iter().map(|e| e.label).collect();
+            let rows = below_rows(&labels, bw as f64 / m.s - 20.0);
+            let lh = m.px(below_height(rows.len())).round() as u32;
+            let (a, b) = body.split_vertically(bh.saturating_sub(lh));
+            let (xr, yr) = b.get_pixel_range();
+            let area = (
+                xr.start as f64,
+                yr.start as f64,
+                xr.end as f64,
+                yr.end as f64,
+            );
+            below = Some((rows, area));
+            (a, None)
+        }
+        _ => (body.clone(), None),
     };
     let x = Axis::category(nc);
-    let yarea = y_label_area(root, &p.y, m)?;
+    let (_, ah) = plot_area.dim_in_pixel();
+    let yroom = ah as f64 - m.px(8.0 + 12.0 + job.categories.area());
+    let ylines = y_desc_lines(&c.y_label, yroom, m);
+    let yarea = y_label_area(root, &p.y, m)? + y_lines_extra(&ylines, m);
     let mut chart = ChartBuilder::on(&plot_area)
         .margin_top(m.pu(8.0))
         .margin_right(m.pu(24.0))
         .margin_bottom(m.pu(12.0))
         .margin_left(m.pu(10.0))
-        .x_label_area_size(m.px(22.0 + 30.0 * category_lines(c) as f64) as u32)
+        .x_label_area_size(m.px(job.categories.area()) as u32)
         .y_label_area_size(yarea)
         .build_cartesian_2d(x, p.y)
         .map_err(de)?;
@@ -148,16 +171,22 @@ fn draw_bar_chart<DB: DrawingBackend>(
     // wrapped to the category width); the mesh only draws the ticks.
     let fx = |_: &f64| String::new();
     let fy = tick_formatter(p.y, Y_TICKS);
-    chart
-        .configure_mesh()
-        .y_desc(c.y_label.as_str())
-        .x_labels(nc)
+    let desc = if ylines.len() == 1 {
+        m.desc_fitting(&[(&c.y_label, yroom)])
+    } else {
+        m.desc()
+    };
+    let mut mesh = chart.configure_mesh();
+    if ylines.len() == 1 {
+        mesh.y_desc(c.y_label.as_str());
+    }
+    mesh.x_labels(nc)
         .y_labels(Y_TICKS)
         .x_label_formatter(&fx)
         .y_label_formatter(&fy)
         .label_style(m.tick())
         .x_label_style(m.desc())
-        .axis_desc_style(m.desc())
+        .axis_desc_style(desc)
         .disable_x_mesh()
         .bold_line_style(BLACK.mix(0.16).stroke_width(m.pu(1.0).max(1)))
         .light_line_style(BLACK.mix(0.06).stroke_width(m.pu(1.0).max(1)))
@@ -172,12 +201,16 @@ fn draw_bar_chart<DB: DrawingBackend>(
         xr.end as f64,
         yr.end as f64,
     );
+    if ylines.len() > 1 {
+        let x0 = plot_area.get_pixel_range().0.start as f64 + m.px(10.0);
+        draw_y_lines(root, &ylines, x0, plot, m)?;
+    }
     let px = |v: f64| to_px(&x, v, plot.0, plot.2 - 1.0);
     let py = |v: f64| {
         let v = v.clamp(p.y.lo, p.y.hi);
         to_px(&p.y, v, plot.3 - 1.0, plot.1)
     };
-    draw_categories(root, c, plot, m)?;
+    draw_categories(root, c, job.categories, plot, m)?;
     let base = match p.y.scale {
         Scale::Log => p.y.lo,
         _ => 0.0f64.clamp(p.y.lo, p.y.hi),
@@ -236,43 +269,109 @@ fn draw_bar_chart<DB: DrawingBackend>(
             }
         }
     }
+    if let Some((rows, area)) = below {
+        draw_legend_below(root, &entries, &rows, area, m)?;
+        return Ok(legend);
+    }
     place_legend(root, &entries, legend, plot, lsize, &obstacles, legend_x, m)
 }
 
-/// The PNG rendering of a bar chart ([`CHART_SIZE`]) without writing it.
-pub fn bar_chart_image(chart: &BarChart) -> Result<Image> {
+/// The PNG rendering of a bar chart in `style` without writing it.
+pub fn bar_chart_image(chart: &BarChart, style: &ChartStyle) -> Result<Image> {
     let prepared = prepare_bar(chart, "bar chart")?;
-    Ok(bitmap(&BarJob { chart, prepared }, CHART_SIZE, "bar chart")?.0)
+    let (job, size) = BarJob::new(chart, prepared, style);
+    Ok(bitmap(&job, size, style, "bar chart")?.0)
 }
 
 /// Category label font size and the width available to one label, at the
 /// reference size.
 const CATEGORY_PX: f64 = 22.0;
 
-fn category_width(c: &BarChart) -> f64 {
-    // The plot is roughly 1000 px wide at the reference size.
-    0.92 * 1000.0 / c.categories.len().max(1) as f64
+/// The width (reference pixels) of one category's label on a chart
+/// `width` reference pixels wide (the plot: about `width` − 200).
+fn category_width(c: &BarChart, width: f64) -> f64 {
+    0.92 * (width - 200.0).max(100.0) / c.categories.len().max(1) as f64
 }
 
-/// Lines the longest wrapped category name needs (at most 3).
-fn category_lines(c: &BarChart) -> usize {
-    c.categories
-        .iter()
-        .map(|t| wrap(t, CATEGORY_PX, category_width(c)).len())
-        .max()
-        .unwrap_or(1)
-        .clamp(1, 3)
+/// How the category names are drawn below the axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Categories {
+    /// Word wrapped to the category width, this many lines (1 to 3).
+    Wrapped { lines: usize, width: f64 },
+    /// Turned a quarter (reading upwards), one line each, the longest this
+    /// many reference pixels: when wrapped names would not fit (many
+    /// categories on a narrow chart).
+    Vertical(f64),
+}
+
+impl Categories {
+    /// Categories of `c` on a chart `width` reference pixels wide.
+    fn of(c: &BarChart, width: f64) -> Categories {
+        let cw = category_width(c, width);
+        let mut lines = 1;
+        let mut fits = true;
+        for t in &c.categories {
+            let w = wrap(t, CATEGORY_PX, cw);
+            lines = lines.max(w.len());
+            fits &= w.len() <= 3
+                && w.iter()
+                    .all(|l| font::text_size(l, CATEGORY_PX, false).0 as f64 <= cw);
+        }
+        if fits {
+            Categories::Wrapped { lines, width: cw }
+        } else {
+            let longest = c
+                .categories
+                .iter()
+                .map(|t| font::text_size(t, CATEGORY_PX, false).0 as f64)
+                .fold(0.0, f64::max);
+            Categories::Vertical(longest)
+        }
+    }
+
+    /// Height (reference pixels) below the plot for the names.
+    fn area(self) -> f64 {
+        match self {
+            Categories::Wrapped { lines, .. } => 22.0 + 30.0 * lines as f64,
+            Categories::Vertical(h) => 24.0 + h,
+        }
+    }
+
+    /// How much more room than one line of names they take (the figure
+    /// grows by it when they turn).
+    fn extra(self) -> f64 {
+        match self {
+            Categories::Wrapped { .. } => 0.0,
+            Categories::Vertical(_) => (self.area() - 52.0).max(0.0),
+        }
+    }
 }
 
 fn draw_categories<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     c: &BarChart,
+    layout: Categories,
     plot: Rect,
     m: Metrics,
 ) -> DResult<()> {
     let x = Axis::category(c.categories.len());
+    let width = match layout {
+        Categories::Wrapped { width, .. } => width,
+        Categories::Vertical(_) => {
+            let style = m
+                .desc()
+                .transform(FontTransform::Rotate270)
+                .pos(Pos::new(HPos::Right, VPos::Center));
+            for (i, name) in c.categories.iter().enumerate() {
+                let cx = to_px(&x, i as f64, plot.0, plot.2 - 1.0);
+                let y = plot.3 + m.px(12.0);
+                root.draw_text(name, &style, (cx.round() as i32, y.round() as i32))
+                    .map_err(de)?;
+            }
+            return Ok(());
+        }
+    };
     let style = m.desc().pos(Pos::new(HPos::Center, VPos::Top));
-    let width = category_width(c);
     for (i, name) in c.categories.iter().enumerate() {
         let cx = to_px(&x, i as f64, plot.0, plot.2 - 1.0);
         for (k, line) in wrap(name, CATEGORY_PX, width).iter().take(3).enumerate() {
@@ -287,6 +386,38 @@ fn draw_categories<DB: DrawingBackend>(
 struct BarJob<'a> {
     chart: &'a BarChart,
     prepared: PreparedBar,
+    categories: Categories,
+    /// The legend goes below the plot (the figure grew for it).
+    below: bool,
+}
+
+impl<'a> BarJob<'a> {
+    /// The job and the figure's size (reference pixels): the chart size of
+    /// `style`, taller by turned category names and a legend below the
+    /// plot when it needs them.
+    fn new(chart: &'a BarChart, prepared: PreparedBar, style: &ChartStyle) -> (Self, (u32, u32)) {
+        let size = style.reference_size();
+        let categories = Categories::of(chart, size.0 as f64);
+        let labels: Vec<&str> = chart.series.iter().map(|(l, _)| l.as_str()).collect();
+        let header = header_height(&chart.title, chart.caption.as_deref());
+        let legend = legend_below(&labels, size, header);
+        let extra = categories.extra() + legend.unwrap_or(0.0);
+        let job = BarJob {
+            chart,
+            prepared,
+            categories,
+            below: legend.is_some(),
+        };
+        (job, (size.0, size.1 + extra.ceil() as u32))
+    }
+
+    fn legend(&self, asked: Option<LegendPos>) -> Option<LegendPos> {
+        if self.below {
+            Some(LegendPos::Below)
+        } else {
+            asked
+        }
+    }
 }
 
 impl ChartDraw for BarJob<'_> {
@@ -296,7 +427,7 @@ impl ChartDraw for BarJob<'_> {
         legend: Option<LegendPos>,
         m: Metrics,
     ) -> DResult<Option<LegendPos>> {
-        draw_bar_chart(root, self.chart, &self.prepared, legend, m)
+        draw_bar_chart(root, self, self.legend(legend), m)
     }
     fn draw_svg(
         &self,
@@ -304,12 +435,18 @@ impl ChartDraw for BarJob<'_> {
         legend: Option<LegendPos>,
         m: Metrics,
     ) -> DResult<Option<LegendPos>> {
-        draw_bar_chart(root, self.chart, &self.prepared, legend, m)
+        draw_bar_chart(root, self, self.legend(legend), m)
     }
 }
 
-/// See [`crate::plot::save_bar_chart_as`].
-pub fn save_bar_chart(chart: &BarChart, stem: &Path, formats: Formats) -> Result<()> {
+/// See [`crate::plot::save_bar_chart_styled`].
+pub fn save_bar_chart(
+    chart: &BarChart,
+    stem: &Path,
+    formats: Formats,
+    style: &ChartStyle,
+) -> Result<()> {
     let prepared = prepare_bar(chart, &formats.describe(stem))?;
-    render_chart(&BarJob { chart, prepared }, stem, CHART_SIZE, formats)
+    let (job, size) = BarJob::new(chart, prepared, style);
+    render_chart(&job, stem, size, style, formats)
 }

@@ -14,6 +14,9 @@ use crate::plot::axis::{format_log_tick, format_tick, log_axis_is_scientific, Ax
 use crate::plot::font;
 use crate::plot::style::{Marker, SeriesStyle};
 
+/// Size of the legend and tick text at the reference scale.
+const LEGEND_TEXT: f64 = 19.0;
+
 /// Which corner of the plot area holds the legend.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Corner {
@@ -33,7 +36,154 @@ const CORNERS: [Corner; 4] = [
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum LegendPos {
     Inside(Corner),
+    /// Right of the plot.
     Outside,
+    /// Below the plot, entries in rows.
+    Below,
+}
+
+/// Share of a chart's width a legend right of the plot may take; a wider
+/// one goes below the plot.
+const OUTSIDE_SHARE: f64 = 0.4;
+/// Charts narrower than this (reference pixels; a one-column chart is
+/// 564) put a legend that fits no corner below the plot, never beside it.
+const NARROW: f64 = 800.0;
+
+/// Whether a legend `lw` reference pixels wide that fits no corner goes
+/// below the plot of a chart `width` reference pixels wide (else beside).
+fn goes_below(lw: f64, width: f64) -> bool {
+    width < NARROW || lw + 24.0 > OUTSIDE_SHARE * width
+}
+
+/// Where a legend that fits in no corner goes (`Outside` asked): right of
+/// the plot, or below it ([`goes_below`]; `width` in pixels).
+pub(super) fn outside_or_below(
+    legend: Option<LegendPos>,
+    lsize: (f64, f64),
+    width: f64,
+    m: Metrics,
+) -> Option<LegendPos> {
+    match legend {
+        Some(LegendPos::Outside) if goes_below(lsize.0 / m.s, width / m.s) => {
+            Some(LegendPos::Below)
+        }
+        l => l,
+    }
+}
+
+/// Gap between legend entries of a row below the plot.
+const ROW_GAP: f64 = 20.0;
+
+/// Width (reference pixels) of a legend entry in a row below the plot.
+fn below_entry_width(label: &str) -> f64 {
+    48.0 + 12.0 + ROW_GAP + font::text_size(label, LEGEND_TEXT, false).0 as f64
+}
+
+/// A legend below the plot: the entries (indices) of each row, filled left
+/// to right within `width` reference pixels.
+pub(super) fn below_rows(labels: &[&str], width: f64) -> Vec<Vec<usize>> {
+    let mut rows: Vec<Vec<usize>> = Vec::new();
+    let mut used = 0.0;
+    for (i, l) in labels.iter().enumerate() {
+        let w = below_entry_width(l);
+        match rows.last_mut() {
+            Some(r) if used + w <= width => {
+                r.push(i);
+                used += w;
+            }
+            _ => {
+                rows.push(vec![i]);
+                used = w;
+            }
+        }
+    }
+    rows
+}
+
+/// Height (reference pixels) of a legend of `rows` rows below the plot.
+pub(super) fn below_height(rows: usize) -> f64 {
+    8.0 + 10.0 + 30.0 * rows as f64 + 6.0 + 8.0
+}
+
+/// Height (reference pixels) of the header [`draw_header`] draws.
+pub(super) fn header_height(title: &str, caption: Option<&str>) -> f64 {
+    let mut h = 14.0 + 6.0;
+    if !title.is_empty() {
+        h += 40.0;
+    }
+    if caption.is_some_and(|c| !c.is_empty()) {
+        h += 30.0;
+    }
+    h
+}
+
+/// The extra height (reference pixels) a chart of `size` (reference
+/// pixels) with a header of `header` needs for its legend of `labels`
+/// below the plot, when that legend fits in no corner of the plot and
+/// beside it would take more than [`OUTSIDE_SHARE`] of the width or the
+/// chart is narrow ([`goes_below`]); `None` when the legend goes inside or
+/// beside the plot. The figure grows by it: the plot keeps its size.
+pub(super) fn legend_below(labels: &[&str], size: (u32, u32), header: f64) -> Option<f64> {
+    let tw = labels
+        .iter()
+        .map(|l| font::text_size(l, LEGEND_TEXT, false).0 as f64)
+        .fold(0.0, f64::max);
+    let (lw, lh) = (
+        14.0 + 48.0 + 12.0 + 14.0 + tw,
+        10.0 + 30.0 * labels.len() as f64 + 6.0,
+    );
+    let (w, h) = (size.0 as f64, size.1 as f64);
+    // The plot, roughly: the y labels and margins take ~150 px, the x
+    // labels and margins ~110 px.
+    let (pw, ph) = (w - 150.0, h - header - 110.0);
+    let cornerless = lw > 0.6 * pw || lh > 0.8 * ph;
+    if cornerless && goes_below(lw, w) {
+        Some(below_height(below_rows(labels, w - 20.0).len()))
+    } else {
+        None
+    }
+}
+
+/// Draws a legend of `rows` (see [`below_rows`]) centred in `area`
+/// (pixels: x0, y0, x1, y1), in a light box.
+pub(super) fn draw_legend_below<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    entries: &[LegendEntry],
+    rows: &[Vec<usize>],
+    area: Rect,
+    m: Metrics,
+) -> DResult<()> {
+    let widths: Vec<f64> = entries
+        .iter()
+        .map(|e| m.px(below_entry_width(e.label)))
+        .collect();
+    let row_w = |r: &[usize]| r.iter().map(|&i| widths[i]).sum::<f64>() - m.px(ROW_GAP);
+    let box_w = rows.iter().map(|r| row_w(r)).fold(0.0, f64::max) + m.px(28.0);
+    let cx = (area.0 + area.2) / 2.0;
+    let y0 = area.1 + m.px(8.0);
+    let r = [
+        ((cx - box_w / 2.0) as i32, y0 as i32),
+        (
+            (cx + box_w / 2.0) as i32,
+            (y0 + m.px(10.0 + 30.0 * rows.len() as f64 + 6.0)) as i32,
+        ),
+    ];
+    root.draw(&Rectangle::new(r, WHITE.mix(0.92).filled()))
+        .map_err(de)?;
+    root.draw(&Rectangle::new(
+        r,
+        RGBColor(150, 150, 150).stroke_width(m.pu(1.0).max(1)),
+    ))
+    .map_err(de)?;
+    for (ri, row) in rows.iter().enumerate() {
+        let cy = y0 + m.px(10.0 + 15.0 + 30.0 * ri as f64);
+        let mut x = cx - row_w(row) / 2.0;
+        for &i in row {
+            draw_entry(root, &entries[i], x, cy, m)?;
+            x += widths[i];
+        }
+    }
+    Ok(())
 }
 
 /// What a legend entry shows next to its label.
@@ -76,6 +226,20 @@ impl Metrics {
     }
     pub(super) fn tick(&self) -> TextStyle<'static> {
         font::text(self.px(19.0), BLACK)
+    }
+    /// The axis label style for labels `texts[i]` at most `rooms[i]`
+    /// pixels long: [`Self::desc`], or smaller (down to the tick size) when
+    /// one would be longer (one size for both axes).
+    pub(super) fn desc_fitting(&self, texts: &[(&str, f64)]) -> TextStyle<'static> {
+        let full = self.px(22.0);
+        let mut size = full;
+        for &(text, room) in texts {
+            let w = font::text_size(text, full, false).0 as f64;
+            if w > room && w > 0.0 {
+                size = size.min((full * room / w).max(self.px(LEGEND_TEXT)));
+            }
+        }
+        font::text(size, BLACK)
     }
     pub(super) fn desc(&self) -> TextStyle<'static> {
         font::text(self.px(22.0), BLACK)
@@ -152,6 +316,8 @@ pub(super) fn place_legend<DB: DrawingBackend>(
         Some(LegendPos::Inside(corner)) => {
             draw_legend(root, entries, corner_rect(plot, lsize, corner, m), m)?;
         }
+        // Drawn by the chart (`draw_legend_below`).
+        Some(LegendPos::Below) => {}
         Some(LegendPos::Outside) => {
             let x0 = legend_x.unwrap_or(plot.2 + m.px(8.0));
             draw_legend(
@@ -182,34 +348,45 @@ fn draw_legend<DB: DrawingBackend>(
     .map_err(de)?;
     for (i, e) in entries.iter().enumerate() {
         let cy = y0 + m.px(10.0 + 15.0 + 30.0 * i as f64);
-        let sx0 = x0 + m.px(14.0);
-        let sx1 = sx0 + m.px(48.0);
-        let color = rgb(e.style.color);
-        match e.swatch {
-            Swatch::Line { markers } => {
-                let pts = vec![(sx0 as i32, cy as i32), (sx1 as i32, cy as i32)];
-                draw_polyline_px(root, &pts, e.style, m)?;
-                if markers {
-                    draw_marker(root, ((sx0 + sx1) / 2.0, cy), e.style, m)?;
-                }
-            }
-            Swatch::Bar => {
-                let b = [
-                    ((sx0 + m.px(8.0)) as i32, (cy - m.px(9.0)) as i32),
-                    ((sx1 - m.px(8.0)) as i32, (cy + m.px(9.0)) as i32),
-                ];
-                root.draw(&Rectangle::new(b, color.filled())).map_err(de)?;
-                root.draw(&Rectangle::new(b, BLACK.stroke_width(m.pu(1.0).max(1))))
-                    .map_err(de)?;
+        draw_entry(root, e, x0 + m.px(14.0), cy, m)?;
+    }
+    Ok(())
+}
+
+/// One legend entry: its swatch from `sx0` and its label, centred on `cy`.
+fn draw_entry<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    e: &LegendEntry,
+    sx0: f64,
+    cy: f64,
+    m: Metrics,
+) -> DResult<()> {
+    let sx1 = sx0 + m.px(48.0);
+    let color = rgb(e.style.color);
+    match e.swatch {
+        Swatch::Line { markers } => {
+            let pts = vec![(sx0 as i32, cy as i32), (sx1 as i32, cy as i32)];
+            draw_polyline_px(root, &pts, e.style, m)?;
+            if markers {
+                draw_marker(root, ((sx0 + sx1) / 2.0, cy), e.style, m)?;
             }
         }
-        root.draw_text(
-            e.label,
-            &m.legend().pos(Pos::new(HPos::Left, VPos::Center)),
-            ((sx1 + m.px(12.0)) as i32, cy as i32),
-        )
-        .map_err(de)?;
+        Swatch::Bar => {
+            let b = [
+                ((sx0 + m.px(8.0)) as i32, (cy - m.px(9.0)) as i32),
+                ((sx1 - m.px(8.0)) as i32, (cy + m.px(9.0)) as i32),
+            ];
+            root.draw(&Rectangle::new(b, color.filled())).map_err(de)?;
+            root.draw(&Rectangle::new(b, BLACK.stroke_width(m.pu(1.0).max(1))))
+                .map_err(de)?;
+        }
     }
+    root.draw_text(
+        e.label,
+        &m.legend().pos(Pos::new(HPos::Left, VPos::Center)),
+        ((sx1 + m.px(12.0)) as i32, cy as i32),
+    )
+    .map_err(de)?;
     Ok(())
 }
 
@@ -369,6 +546,52 @@ pub(crate) fn wrap(text: &str, size: f64, width: f64) -> Vec<String> {
     lines
 }
 
+/// Width (reference pixels) of one more line of a wrapped y axis label.
+const Y_LINE: f64 = 27.0;
+
+/// The y axis label as lines: one (drawn by the mesh, shrunk to fit by
+/// [`Metrics::desc_fitting`]) when at the tick size it fits along the
+/// `room` pixels of the axis, else word wrapped into up to three lines
+/// ([`draw_y_lines`]).
+pub(super) fn y_desc_lines(text: &str, room: f64, m: Metrics) -> Vec<String> {
+    if font::text_size(text, m.px(LEGEND_TEXT), false).0 as f64 <= room {
+        return vec![text.to_string()];
+    }
+    let mut lines = wrap(text, 22.0, room / m.s);
+    if lines.len() > 3 {
+        let rest = lines.split_off(2).join(" ");
+        lines.push(rest);
+    }
+    lines
+}
+
+/// Extra width (pixels) of the y label area for `lines` of y label.
+pub(super) fn y_lines_extra(lines: &[String], m: Metrics) -> u32 {
+    m.pu(Y_LINE * lines.len().saturating_sub(1) as f64)
+}
+
+/// Draws a wrapped y axis label (more than one line) turned a quarter,
+/// centred on the plot's height, its first line leftmost at `x0`.
+pub(super) fn draw_y_lines<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    lines: &[String],
+    x0: f64,
+    plot: Rect,
+    m: Metrics,
+) -> DResult<()> {
+    let style = m
+        .desc()
+        .transform(FontTransform::Rotate270)
+        .pos(Pos::new(HPos::Center, VPos::Center));
+    let cy = (plot.1 + plot.3) / 2.0;
+    for (k, line) in lines.iter().enumerate() {
+        let x = x0 + m.px(4.0 + 13.0 + Y_LINE * k as f64);
+        root.draw_text(line, &style, (x.round() as i32, cy.round() as i32))
+            .map_err(de)?;
+    }
+    Ok(())
+}
+
 /// Log range covering `[lo, hi]` (both > 0), widened to whole decades.
 pub(super) fn log_range(lo: f64, hi: f64) -> (f64, f64) {
     let a = 10f64.powf((lo.log10() + 1e-9).floor());
@@ -389,6 +612,13 @@ pub(super) fn tick_formatter(axis: Axis, max_ticks: usize) -> impl Fn(&f64) -> S
 }
 
 pub(super) const X_TICKS: usize = 10;
+
+/// Most x ticks on a plot `width` pixels wide: [`X_TICKS`], fewer on a
+/// narrow plot (one per 70 reference pixels, at least 4), so that tick
+/// labels do not touch.
+pub(super) fn x_ticks(width: f64, m: Metrics) -> usize {
+    ((width / m.s / 70.0).floor() as usize).clamp(4, X_TICKS)
+}
 pub(super) const Y_TICKS: usize = 8;
 
 /// Width needed left of the plot for the y tick labels and the y label.

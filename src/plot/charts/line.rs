@@ -8,11 +8,12 @@ use plotters::prelude::*;
 
 use super::backend::{bitmap, render_chart, ChartDraw};
 use super::layout::{
-    draw_header, draw_marker, draw_polyline_px, legend_size, log_range, place_legend,
-    tick_formatter, to_px, y_label_area, LegendEntry, LegendPos, Metrics, Rect, Swatch, X_TICKS,
-    Y_TICKS,
+    below_height, below_rows, draw_header, draw_legend_below, draw_marker, draw_polyline_px,
+    draw_y_lines, header_height, legend_below, legend_size, log_range, outside_or_below,
+    place_legend, tick_formatter, to_px, x_ticks, y_desc_lines, y_label_area, y_lines_extra,
+    LegendEntry, LegendPos, Metrics, Rect, Swatch, Y_TICKS,
 };
-use super::{de, DResult, CHART_SIZE};
+use super::{de, ChartStyle, DResult};
 use crate::plot::axis::Axis;
 use crate::plot::font::GlyphBackend;
 use crate::plot::output::{Formats, Image};
@@ -255,13 +256,31 @@ fn draw_line_chart<DB: DrawingBackend>(
         })
         .collect();
     let lsize = legend_size(root, &entries, m)?;
-    let (plot_area, legend_x) = if legend == Some(LegendPos::Outside) {
-        let (bw, _) = body.dim_in_pixel();
-        let lw = (lsize.0 + m.px(24.0)) as u32;
-        let (a, _) = body.split_horizontally(bw.saturating_sub(lw));
-        (a, Some(bw.saturating_sub(lw) as f64 + m.px(8.0)))
-    } else {
-        (body.clone(), None)
+    let (bw, bh) = body.dim_in_pixel();
+    let legend = outside_or_below(legend, lsize, bw as f64, m);
+    let mut below = None;
+    let (plot_area, legend_x) = match legend {
+        Some(LegendPos::Outside) => {
+            let lw = (lsize.0 + m.px(24.0)) as u32;
+            let (a, _) = body.split_horizontally(bw.saturating_sub(lw));
+            (a, Some(bw.saturating_sub(lw) as f64 + m.px(8.0)))
+        }
+        Some(LegendPos::Below) => {
+            let labels: Vec<&str> = entries.iter().map(|e| e.label).collect();
+            let rows = below_rows(&labels, bw as f64 / m.s - 20.0);
+            let lh = m.px(below_height(rows.len())).round() as u32;
+            let (a, b) = body.split_vertically(bh.saturating_sub(lh));
+            let (xr, yr) = b.get_pixel_range();
+            let area = (
+                xr.start as f64,
+                yr.start as f64,
+                xr.end as f64,
+                yr.end as f64,
+            );
+            below = Some((rows, area));
+            (a, None)
+        }
+        _ => (body.clone(), None),
     };
     let (plot, obstacles) = draw_line_body(
         root,
@@ -273,6 +292,10 @@ fn draw_line_chart<DB: DrawingBackend>(
         floor,
         m,
     )?;
+    if let Some((rows, area)) = below {
+        draw_legend_below(root, &entries, &rows, area, m)?;
+        return Ok(legend);
+    }
     place_legend(root, &entries, legend, plot, lsize, &obstacles, legend_x, m)
 }
 
@@ -292,7 +315,15 @@ pub(super) fn draw_line_body<DB: DrawingBackend>(
     floor: Option<usize>,
     m: Metrics,
 ) -> DResult<(Rect, Vec<Rect>)> {
-    let yarea = y_label_area(root, &p.y, m)?;
+    let (aw, ah) = area.dim_in_pixel();
+    let yroom = ah as f64 - m.px(8.0 + 12.0 + 78.0);
+    let ylines = y_desc_lines(&c.y_label, yroom, m);
+    let yarea = y_label_area(root, &p.y, m)? + y_lines_extra(&ylines, m);
+    let mut fits = vec![(c.x_label.as_str(), aw as f64 - yarea as f64 - m.px(46.0))];
+    if ylines.len() == 1 {
+        fits.push((c.y_label.as_str(), yroom));
+    }
+    let desc = m.desc_fitting(&fits);
     let mut chart = ChartBuilder::on(area)
         .margin_top(m.pu(8.0))
         .margin_right(m.pu(36.0))
@@ -302,18 +333,20 @@ pub(super) fn draw_line_body<DB: DrawingBackend>(
         .y_label_area_size(yarea)
         .build_cartesian_2d(p.x, p.y)
         .map_err(de)?;
-    let fx = tick_formatter(p.x, X_TICKS);
+    let nx = x_ticks(aw as f64 - yarea as f64 - m.px(46.0), m);
+    let fx = tick_formatter(p.x, nx);
     let fy = tick_formatter(p.y, Y_TICKS);
-    chart
-        .configure_mesh()
-        .x_desc(c.x_label.as_str())
-        .y_desc(c.y_label.as_str())
-        .x_labels(X_TICKS)
+    let mut mesh = chart.configure_mesh();
+    if ylines.len() == 1 {
+        mesh.y_desc(c.y_label.as_str());
+    }
+    mesh.x_desc(c.x_label.as_str())
+        .x_labels(nx)
         .y_labels(Y_TICKS)
         .x_label_formatter(&fx)
         .y_label_formatter(&fy)
         .label_style(m.tick())
-        .axis_desc_style(m.desc())
+        .axis_desc_style(desc)
         .bold_line_style(BLACK.mix(0.16).stroke_width(m.pu(1.0).max(1)))
         .light_line_style(BLACK.mix(0.06).stroke_width(m.pu(1.0).max(1)))
         .axis_style(BLACK.stroke_width(m.pu(1.5).max(1)))
@@ -329,6 +362,10 @@ pub(super) fn draw_line_body<DB: DrawingBackend>(
         xr.end as f64,
         yr.end as f64,
     );
+    if ylines.len() > 1 {
+        let x0 = area.get_pixel_range().0.start as f64 + m.px(10.0);
+        draw_y_lines(root, &ylines, x0, plot, m)?;
+    }
     let map = |(a, b): (f64, f64)| {
         (
             to_px(&p.x, a, plot.0, plot.2 - 1.0),
@@ -387,15 +424,43 @@ pub(super) fn draw_line_body<DB: DrawingBackend>(
     Ok((plot, obstacles))
 }
 
-/// The PNG rendering of a line chart ([`CHART_SIZE`]) without writing it.
-pub fn line_chart_image(chart: &LineChart) -> Result<Image> {
+/// The PNG rendering of a line chart in `style` without writing it.
+pub fn line_chart_image(chart: &LineChart, style: &ChartStyle) -> Result<Image> {
     let prepared = prepare_line(chart, "line chart")?;
-    Ok(bitmap(&LineJob { chart, prepared }, CHART_SIZE, "line chart")?.0)
+    let (job, size) = LineJob::new(chart, prepared, style);
+    Ok(bitmap(&job, size, style, "line chart")?.0)
 }
 
 struct LineJob<'a> {
     chart: &'a LineChart,
     prepared: PreparedLine,
+    /// The legend goes below the plot (the figure grew for it).
+    below: bool,
+}
+
+impl<'a> LineJob<'a> {
+    /// The job and the figure's size (reference pixels): the chart size of
+    /// `style`, taller by a legend below the plot when it needs one.
+    fn new(chart: &'a LineChart, prepared: PreparedLine, style: &ChartStyle) -> (Self, (u32, u32)) {
+        let size = style.reference_size();
+        let labels: Vec<&str> = chart.series.iter().map(|s| s.label.as_str()).collect();
+        let header = header_height(&chart.title, chart.caption.as_deref());
+        let extra = legend_below(&labels, size, header);
+        let job = LineJob {
+            chart,
+            prepared,
+            below: extra.is_some(),
+        };
+        (job, (size.0, size.1 + extra.unwrap_or(0.0).ceil() as u32))
+    }
+
+    fn legend(&self, asked: Option<LegendPos>) -> Option<LegendPos> {
+        if self.below {
+            Some(LegendPos::Below)
+        } else {
+            asked
+        }
+    }
 }
 
 impl ChartDraw for LineJob<'_> {
@@ -405,7 +470,7 @@ impl ChartDraw for LineJob<'_> {
         legend: Option<LegendPos>,
         m: Metrics,
     ) -> DResult<Option<LegendPos>> {
-        draw_line_chart(root, self.chart, &self.prepared, legend, m)
+        draw_line_chart(root, self.chart, &self.prepared, self.legend(legend), m)
     }
     fn draw_svg(
         &self,
@@ -413,14 +478,20 @@ impl ChartDraw for LineJob<'_> {
         legend: Option<LegendPos>,
         m: Metrics,
     ) -> DResult<Option<LegendPos>> {
-        draw_line_chart(root, self.chart, &self.prepared, legend, m)
+        draw_line_chart(root, self.chart, &self.prepared, self.legend(legend), m)
     }
 }
 
-/// See [`crate::plot::save_line_chart_as`].
-pub fn save_line_chart(chart: &LineChart, stem: &Path, formats: Formats) -> Result<()> {
+/// See [`crate::plot::save_line_chart_styled`].
+pub fn save_line_chart(
+    chart: &LineChart,
+    stem: &Path,
+    formats: Formats,
+    style: &ChartStyle,
+) -> Result<()> {
     let prepared = prepare_line(chart, &formats.describe(stem))?;
-    render_chart(&LineJob { chart, prepared }, stem, CHART_SIZE, formats)
+    let (job, size) = LineJob::new(chart, prepared, style);
+    render_chart(&job, stem, size, style, formats)
 }
 
 #[cfg(test)]

@@ -12,14 +12,12 @@ use super::layout::{
     draw_header, draw_marker, draw_polyline_px, LegendEntry, LegendPos, Metrics, Swatch,
 };
 use super::line::{draw_line_body, prepare_line, PreparedLine};
-use super::{de, DResult};
+use super::{de, ChartStyle, DResult};
 use crate::plot::font::{self, GlyphBackend};
 use crate::plot::output::{Formats, Image};
 use crate::plot::style::{series_style, SeriesStyle, FLOOR_STYLE, MAX_PLAIN_SERIES};
 use crate::{Error, Result};
 
-/// Size of one panel of [`crate::plot::LinePanels`] at the reference scale.
-const PANEL_SIZE: (f64, f64) = (760.0, 640.0);
 /// Height of a panel title line.
 const PANEL_TITLE: f64 = 40.0;
 /// Height of one row of the shared legend.
@@ -239,7 +237,11 @@ impl ChartDraw for PanelsJob<'_> {
 fn prepare_panels<'a>(
     f: &'a crate::plot::LinePanels,
     name: &str,
+    style: &ChartStyle,
 ) -> Result<(PanelsJob<'a>, (u32, u32))> {
+    // One panel: the chart size of `style`, in reference pixels.
+    let (pw, ph) = style.reference_size();
+    let panel = (pw as f64, ph as f64);
     if f.panels.is_empty() {
         return Err(Error::invalid(format!(
             "{name}: figure \"{}\" has no panels",
@@ -257,7 +259,7 @@ fn prepare_panels<'a>(
         .caption
         .as_deref()
         .map_or(0.0, |c| font::text_size(c, 20.0, false).0 as f64);
-    let width = (PANEL_SIZE.0 * f.panels.len() as f64)
+    let width = (panel.0 * f.panels.len() as f64)
         .max(title_w + 60.0)
         .max(cap_w + 60.0);
     let rows = legend_rows(&shared.labels, width - 60.0);
@@ -268,7 +270,7 @@ fn prepare_panels<'a>(
     if f.caption.as_deref().is_some_and(|c| !c.is_empty()) {
         header += 30.0;
     }
-    let height = header + PANEL_SIZE.1 + LEGEND_ROW * rows.len() as f64 + 16.0;
+    let height = header + panel.1 + LEGEND_ROW * rows.len() as f64 + 16.0;
     let size = (width.ceil() as u32, height.ceil() as u32);
     if size.0 > 8000 || size.1 > 8000 {
         return Err(Error::invalid(format!(
@@ -287,14 +289,21 @@ fn prepare_panels<'a>(
     ))
 }
 
-/// See [`crate::plot::save_line_panels_as`].
-pub fn save_line_panels(f: &crate::plot::LinePanels, stem: &Path, formats: Formats) -> Result<()> {
-    let (job, size) = prepare_panels(f, &formats.describe(stem))?;
-    render_chart(&job, stem, size, formats)
+/// See [`crate::plot::save_line_panels_styled`]: each panel has the size
+/// of `style`.
+pub fn save_line_panels(
+    f: &crate::plot::LinePanels,
+    stem: &Path,
+    formats: Formats,
+    style: &ChartStyle,
+) -> Result<()> {
+    let (job, size) = prepare_panels(f, &formats.describe(stem), style)?;
+    render_chart(&job, stem, size, style, formats)
 }
 
-/// The PNG rendering of a [`crate::plot::LinePanels`] figure without writing it.
-pub fn line_panels_image(f: &crate::plot::LinePanels) -> Result<Image> {
-    let (job, size) = prepare_panels(f, "line panels")?;
-    Ok(bitmap(&job, size, "line panels")?.0)
+/// The PNG rendering of a [`crate::plot::LinePanels`] figure without
+/// writing it, each panel of the size of `style`.
+pub fn line_panels_image(f: &crate::plot::LinePanels, style: &ChartStyle) -> Result<Image> {
+    let (job, size) = prepare_panels(f, "line panels", style)?;
+    Ok(bitmap(&job, size, style, "line panels")?.0)
 }

@@ -9,7 +9,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::backend::{render_chart, ChartDraw};
 use super::layout::{draw_header, LegendPos, Metrics};
-use super::{de, DResult};
+use super::{de, ChartStyle, DResult};
 use crate::plot::font::{self, GlyphBackend};
 use crate::plot::output::Formats;
 use crate::{Error, Result};
@@ -113,8 +113,14 @@ impl ChartDraw for TableJob<'_> {
     }
 }
 
-/// See [`crate::plot::save_table_as`].
-pub fn save_table(table: &crate::plot::Table, stem: &Path, formats: Formats) -> Result<()> {
+/// See [`crate::plot::save_table_styled`]: sized to the content, with the
+/// text size and resolution of `style`.
+pub fn save_table(
+    table: &crate::plot::Table,
+    stem: &Path,
+    formats: Formats,
+    style: &ChartStyle,
+) -> Result<()> {
     let name = formats.describe(stem);
     let nc = table.columns.len();
     if nc == 0 {
@@ -176,6 +182,7 @@ pub fn save_table(table: &crate::plot::Table, stem: &Path, formats: Formats) -> 
         },
         stem,
         (width, height),
+        style,
         formats,
     )
 }
