@@ -81,6 +81,25 @@ impl Layout {
     }
 }
 
+/// Line height of the panel labels.
+const LABEL_LINE_PX: u32 = 26;
+
+/// A panel's label as lines that fit its width (a label that fits stays one
+/// line; at most three, the last cut with an ellipsis); none for an empty
+/// label.
+fn panel_label_lines(label: &str, panel_width: u32) -> Vec<String> {
+    if label.is_empty() {
+        return Vec::new();
+    }
+    let width = panel_width.saturating_sub(8).max(40) as f64;
+    let mut lines = super::charts::wrap(label, LABEL_PX, width);
+    if lines.len() > 3 {
+        lines.truncate(3);
+        lines[2].push('…');
+    }
+    lines
+}
+
 fn text_width(text: &str, size: f64) -> u32 {
     font::text_size(text, size, false).0
 }
@@ -117,8 +136,15 @@ fn layout(fig: &Figure, opts: &RenderOptions) -> Result<Layout> {
     }
     .max(1);
     let rows = n.div_ceil(cols).max(1);
-    let footer = if fig.panels.iter().any(|p| !p.label.is_empty()) {
-        48
+    // Labels wider than a panel wrap onto more lines (at most three).
+    let label_lines = fig
+        .panels
+        .iter()
+        .map(|p| panel_label_lines(&p.label, fig.panel_size.0).len() as u32)
+        .max()
+        .unwrap_or(0);
+    let footer = if label_lines > 0 {
+        22 + LABEL_LINE_PX * label_lines
     } else {
         12
     };
@@ -281,12 +307,17 @@ fn draw_overlay<DB: DrawingBackend>(
             continue;
         }
         let (x, y) = lay.panel_origin(i);
-        root.draw_text(
-            &p.label,
-            &font::text(LABEL_PX, BLACK).pos(Pos::new(HPos::Center, VPos::Top)),
-            ((x + pw / 2) as i32, (y + ph + 12) as i32),
-        )
-        .map_err(de)?;
+        for (k, line) in panel_label_lines(&p.label, pw).iter().enumerate() {
+            root.draw_text(
+                line,
+                &font::text(LABEL_PX, BLACK).pos(Pos::new(HPos::Center, VPos::Top)),
+                (
+                    (x + pw / 2) as i32,
+                    (y + ph + 12 + LABEL_LINE_PX * k as u32) as i32,
+                ),
+            )
+            .map_err(de)?;
+        }
     }
     for (b, x, cw) in &lay.bars {
         let x0 = (x + 20) as i32;
@@ -428,4 +459,29 @@ pub fn save_figure_as(
         write_bytes_atomic(&pdf, &b)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn panel_labels_wrap_to_the_panel_width() {
+        assert!(panel_label_lines("", 260).is_empty());
+        assert_eq!(panel_label_lines("target B", 260), ["target B"]);
+        let long = "Sumner & Popović, oracle correspondence";
+        let lines = panel_label_lines(long, 260);
+        assert!(lines.len() >= 2, "{lines:?}");
+        assert_eq!(lines.join(" "), long);
+        for l in &lines {
+            assert!(
+                text_width(l, LABEL_PX) <= 252,
+                "{l:?} is wider than the panel"
+            );
+        }
+        let very = "word ".repeat(60);
+        let cut = panel_label_lines(very.trim(), 260);
+        assert_eq!(cut.len(), 3);
+        assert!(cut[2].ends_with('…'));
+    }
 }
