@@ -16,7 +16,7 @@ fn readme_names_the_two_commands_and_its_images_exist() {
         "README.md must start with its title"
     );
     assert!(
-        text.contains("cargo test --release"),
+        text.contains("cargo test --profile release"),
         "test command missing"
     );
     assert!(text.contains("deformlab run experiments/*.toml") || text.contains("run experiments/"));
@@ -511,8 +511,8 @@ fn readme_test_command_covers_rust_and_python_and_ci_runs_it() {
     );
     let script = std::fs::read_to_string(root.join("scripts/test.sh")).unwrap();
     let rust = script
-        .find("cargo test --locked --release")
-        .expect("scripts/test.sh runs cargo test --release");
+        .find("cargo test --locked --profile release")
+        .expect("scripts/test.sh runs cargo test --profile release");
     let python = script
         .find("-m pytest")
         .expect("scripts/test.sh runs pytest");
