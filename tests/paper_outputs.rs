@@ -305,6 +305,38 @@ fn titles_are_off_by_default_and_can_be_switched_on() {
     // The chart is taller where the header was: the PNG is the same size,
     // the PDF converts.
     assert_pdf(&copy.join("plots/cumulative.pdf"));
+    // A plot's own title text names it in its data files but is drawn only
+    // when titles are on.
+    let named = CONFIG.replace(
+        "kind = \"cumulative\"\n",
+        "kind = \"cumulative\"\ntitle = \"A named cumulative plot\"\n",
+    );
+    assert_ne!(named, CONFIG);
+    for (config, drawn) in [
+        (named.clone(), false),
+        (
+            named.replace("[outputs]\n", "[outputs]\ntitle = true\n"),
+            true,
+        ),
+    ] {
+        let cfg = write(t.path(), "named.toml", &config);
+        ok(&[
+            "plot",
+            copy.to_str().unwrap(),
+            "--config",
+            cfg.to_str().unwrap(),
+        ]);
+        for svg in ["cumulative.svg", "cumulative_area.svg"] {
+            let texts = svg_texts(&copy.join("plots").join(svg));
+            assert_eq!(
+                texts
+                    .iter()
+                    .any(|t| t.starts_with("A named cumulative plot")),
+                drawn,
+                "{svg}: {texts:?}"
+            );
+        }
+    }
     // A title text must be a title.
     let bad = CONFIG.replace("[outputs]\n", "[outputs]\ntitle = 3\n");
     let cfg = write(t.path(), "bad.toml", &bad);

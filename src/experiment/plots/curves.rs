@@ -69,6 +69,7 @@ pub(super) fn cumulative(ctx: &Ctx, spec: &PlotSpec) -> Result<()> {
             continue;
         }
         let title = match (&spec.title, suffix) {
+            (Some(TitleSpec::Text(_)), _) if !ctx.titles => String::new(),
             (Some(TitleSpec::Text(t)), "") => t.clone(),
             (Some(TitleSpec::Text(t)), _) => format!("{t} ({})", suffix.trim_start_matches('_')),
             _ => ctx.title(spec, || match suffix {
