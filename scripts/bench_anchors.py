@@ -21,8 +21,9 @@ and passes its options here. Rows (`--rows`, default all):
 * `eig`       LBO eigenpairs k = 20, 100: `deformlab.lbo_eigenpairs` vs
               scipy `eigsh(L, k, M, sigma, which="LM")` (shift-invert,
               SuperLU) on deformlab's own L and M, eigenvalues compared;
-* `fbt`       `deformlab bench fbt` (run from the repository root) vs the
-              constants of FBT Table 1;
+* `fbt`       `deformlab bench fbt` (run from the repository root; its stage
+              lines are echoed as progress): the CPU times of its CPU table
+              vs the constants of FBT Table 1;
 * `keypoints` `deformlab keypoints` (n_c = 100, m = 1) on 2 threads, its CPU
               time (both threads) vs the targets 10 s / 30 s / 60 s at
               6.9k / 27k / 108k;
