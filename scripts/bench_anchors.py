@@ -31,8 +31,12 @@ and passes its options here. Rows (`--rows`, default all):
               CPU-bound slice of four independent synthetic cases (or the
               configs of `--suite`): the wall speed-up (goal ≥ 1.7× on an
               idle machine; no verdict when the 1-minute load average
-              before the row exceeds 0.5), the CPU time of each run beside
-              it, and equality of the non-timing results;
+              before the row exceeds 0.5, unless a 3-second sample of
+              /proc/stat just before it shows other processes using under
+              0.1 core: the load average then counts this benchmark's own
+              earlier rows; and none when other processes used 0.2 core or
+              more during a run, from /proc/stat around it), the CPU time
+              of each run beside it, and equality of the non-timing results;
 * `nicp`      Amberg NICP per iteration vs `trimesh.registration.nricp_amberg`
               (see the row's SKIP line for why it is not measured).
 
@@ -495,6 +499,13 @@ class Bench:
         key point selection, m = 1 pose), so two workers can each take two;
         `--suite` runs those configs instead."""
         load0 = loadavg1()
+        # The 1-minute load average also counts this benchmark's own earlier
+        # rows (the key point row runs 2 threads just before it, which alone
+        # lifts it above 0.5): a 3-second sample of the machine's busy cores
+        # while this process sleeps tells the other processes' load now.
+        # No verdict when the load average exceeds BUSY_LOAD, unless that
+        # sample shows the others idle (below IDLE_OTHERS cores).
+        others = busy_cores(3.0)
         with tempfile.TemporaryDirectory() as tmp:
             if self.a.suite:
                 import glob
@@ -511,8 +522,10 @@ class Bench:
                      f"N = 1, 2 ({what}); wall speed-up, CPU (user + sys) of each run beside it")
             if not self.a.suite:
                 self.say("  slice: " + THREADS_SLICE_NOTE)
-            self.say(f"  1-minute load average before the row: {load0:.2f}")
+            self.say(f"  1-minute load average before the row: {load0:.2f}; cores busy with other work in the "
+                     f"3 s before it: {others:.2f}")
             runs = {1: [], 2: []}
+            during = []
             tables = {}
             reps = self.a.reps
             self.progress(f"threads: {reps} run(s) of --threads 1 and 2 ({what})")
@@ -520,12 +533,16 @@ class Bench:
                 for n in (1, 2):
                     out = Path(tmp) / f"t{n}-{r}"
                     cmd = [self.a.cli, "run", *files, "--out", str(out), "--no-plots", "--quiet", "--threads", str(n)]
+                    s0 = cpu_sample()
                     w, c, p = run_timed(cmd, {k: str(n) for k in SINGLE}, cwd=ROOT)
+                    # The others' cores during the run: the machine's busy
+                    # cores less this run's own.
+                    during.append(busy_between(s0, cpu_sample()) - c / w)
                     if p.returncode != 0:
                         return self.skip("threads", f"run --threads {n} failed: {p.stderr.strip()[-400:]}")
                     runs[n].append((w, c))
                     self.progress(f"  threads --threads {n} run {r + 1}/{reps}: wall {w:.1f} s, CPU {c:.1f} s "
-                                  f"({c / w:.2f} cores)")
+                                  f"({c / w:.2f} cores; other processes {during[-1]:.2f} cores)")
                     tables[n] = read_cases(out)
             same, detail = compare_cases(tables[1], tables[2])
         load1 = loadavg1()
@@ -533,15 +550,19 @@ class Bench:
         speed = [a[0] / b[0] for a, b in zip(runs[1], runs[2])]
         self.say(f"  non-timing columns of cases.csv equal on 1 and 2 threads: {same} {detail}")
         self.say(f"  1-minute load average: {load0:.2f} before the row, {load1:.2f} after")
-        busy = load0 > BUSY_LOAD
+        worst = max(during)
+        self.say(f"  other processes during the runs: {worst:.2f} cores at most")
+        busy = (load0 > BUSY_LOAD and not others < IDLE_OTHERS) or not worst < BUSY_DURING
         ratio = f"{w1 / w2:.2f}×" + (f" (runs {min(speed):.2f}–{max(speed):.2f})" if len(speed) > 1 else "")
         met = w1 / w2 >= GOAL_THREADS and same
         if busy:
-            met = f"machine busy: verdict not meaningful (load {load0:.2f} > {BUSY_LOAD}){'' if same else '; results differ'}"
+            met = (f"machine busy: verdict not meaningful (load {load0:.2f}, others {others:.2f} cores before "
+                   f"the row, up to {worst:.2f} during it)" + ("" if same else "; results differ"))
         self.row(f"2 threads vs 1 ({what}; wall speed-up)", "suite" if self.a.suite else "slice",
                  f"2 threads: wall {span([w for w, _ in runs[2]], prec=1)} s, CPU {span([c for _, c in runs[2]], prec=1)} s",
                  f"1 thread: wall {span([w for w, _ in runs[1]], prec=1)} s, CPU {span([c for _, c in runs[1]], prec=1)} s",
-                 f"{ratio}; load {load0:.2f}", f"≥ {GOAL_THREADS}× wall on an idle machine and equal results", met)
+                 f"{ratio}; load {load0:.2f} (others {others:.2f} cores before, ≤ {worst:.2f} during)",
+                 f"≥ {GOAL_THREADS}× wall on an idle machine and equal results", met)
 
     def nicp(self):
         self.say("\n## nicp: Amberg NICP per iteration vs trimesh.registration.nricp_amberg")
@@ -589,6 +610,12 @@ THREADS_SLICE_NOTE = ("synthetic subjects 2 × poses 3 at resolution 1 (1.7k ver
 # Above this 1-minute load average (before the row) the machine is not idle
 # and the threads row gives no verdict.
 BUSY_LOAD = 0.5
+# ... unless other processes used fewer cores than this in the 3 s before it
+# (the load average then being this benchmark's own earlier rows).
+IDLE_OTHERS = 0.1
+# No verdict either when other processes used this many cores or more during
+# any of the row's runs (a load that arrived after the row began).
+BUSY_DURING = 0.2
 
 
 def loadavg1():
@@ -596,6 +623,33 @@ def loadavg1():
         return os.getloadavg()[0]
     except OSError:
         return float("nan")
+
+
+def cpu_sample():
+    """(total, idle + iowait) ticks of the whole machine from /proc/stat, or
+    None where unavailable."""
+    try:
+        with open("/proc/stat") as fh:
+            v = [int(x) for x in fh.readline().split()[1:]]
+        return sum(v), v[3] + v[4]
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def busy_between(a, b):
+    """Cores busy on the whole machine between two cpu_sample()s (NaN when
+    unavailable)."""
+    if a is None or b is None or b[0] <= a[0]:
+        return float("nan")
+    return (os.cpu_count() or 1) * (1 - (b[1] - a[1]) / (b[0] - a[0]))
+
+
+def busy_cores(seconds):
+    """Cores busy on the whole machine over `seconds` of this process
+    sleeping: the other processes' load now."""
+    a = cpu_sample()
+    time.sleep(seconds)
+    return busy_between(a, cpu_sample())
 
 
 def span(values, scale=1.0, prec=2):
