@@ -21,12 +21,22 @@ and passes its options here. Rows (`--rows`, default all):
 * `eig`       LBO eigenpairs k = 20, 100: `deformlab.lbo_eigenpairs` vs
               scipy `eigsh(L, k, M, sigma, which="LM")` (shift-invert,
               SuperLU) on deformlab's own L and M, eigenvalues compared;
-* `fbt`       `deformlab bench fbt` (run from the repository root) vs the
-              constants of FBT Table 1;
-* `keypoints` `deformlab keypoints` (n_c = 100, m = 1) on 2 threads vs the
-              targets 10 s / 30 s / 60 s at 6.9k / 27k / 108k;
-* `threads`   `deformlab run CONFIGS --no-plots --threads N`, N = 1 and 2,
-              wall time ratio and equality of the non-timing results;
+* `fbt`       `deformlab bench fbt` (run from the repository root; its stage
+              lines are echoed as progress): the CPU times of its CPU table
+              vs the constants of FBT Table 1;
+* `keypoints` `deformlab keypoints` (n_c = 100, m = 1) on 2 threads, its CPU
+              time (both threads) vs the targets 10 s / 30 s / 60 s at
+              6.9k / 27k / 108k;
+* `threads`   `deformlab run SLICE --no-plots --threads N`, N = 1 and 2, on a
+              CPU-bound slice of four independent synthetic cases (or the
+              configs of `--suite`): the wall speed-up (goal ≥ 1.7× on an
+              idle machine; no verdict when the 1-minute load average
+              before the row exceeds 0.5, unless a 3-second sample of
+              /proc/stat just before it shows other processes using under
+              0.1 core: the load average then counts this benchmark's own
+              earlier rows; and none when other processes used 0.2 core or
+              more during a run, from /proc/stat around it), the CPU time
+              of each run beside it, and equality of the non-timing results;
 * `nicp`      Amberg NICP per iteration vs `trimesh.registration.nricp_amberg`
               (see the row's SKIP line for why it is not measured).
 
@@ -41,10 +51,16 @@ medians of `--reps` runs (`--reps-large` at 28k and above, except key
 point selection at 27k, which gets `--reps`) of wall and CPU time
 (`time.process_time()` of the measured process, all its threads) are
 reported, and beside a median ratio the range of the per-run ratios
-(interleaved pairs) when there are several runs. Single-thread ratios are
-ratios of CPU time (the machine is shared; wall time is printed too); the
-2-thread rows use wall time.
-`--quick`: the smallest size only, fewer repetitions, a slice of the suite.
+(interleaved pairs) when there are several runs. Every verdict and ratio is
+one of CPU time (user + sys of the measured work only: the measured call
+in the worker, or the child process from the RUSAGE_CHILDREN delta around
+it; the FBT rows from the CPU table of `deformlab bench fbt`), the machine
+being shared; wall time is printed beside it, both as median (min–max)
+over the runs. The threads row alone is judged by wall time (a speed-up),
+with the CPU time of each run beside it. Progress (each row's start and
+each run, stamped with the elapsed time and the load average) goes to
+stderr as it happens; the load average is printed at the start and end.
+`--quick`: the smallest size only, fewer repetitions.
 """
 
 import argparse
@@ -199,19 +215,30 @@ class Bench:
         self.rows = []  # (row, size, ours, anchor, ratio, goal, met)
         self.notes = []
         self.log_lines = []
+        self.t0 = time.perf_counter()
 
     # -- output
     def say(self, text=""):
         print(text, flush=True)
         self.log_lines.append(text)
 
+    def progress(self, text):
+        """A progress line on stderr (flushed; also kept in the report's log),
+        stamped with the time since the start and the 1-minute load average."""
+        line = f"[{time.perf_counter() - self.t0:6.0f} s, load {loadavg1():.2f}] {text}"
+        print(line, file=sys.stderr, flush=True)
+        self.log_lines.append(line)
+
     def skip(self, what, why):
         self.say(f"SKIP {what}: {why}")
         self.rows.append((what, "", "", "", "", "", f"SKIP: {why}"))
 
     def row(self, what, size, ours, anchor, ratio, goal, met):
-        self.rows.append((what, size, ours, anchor, ratio, goal, "yes" if met else "no"))
-        self.say(f"ROW {what} [{size}]: ours {ours}; anchor {anchor}; ratio {ratio}; goal {goal}; met {'yes' if met else 'no'}")
+        """`met`: True / False, or a string said instead (a verdict that
+        cannot be given)."""
+        met = met if isinstance(met, str) else ("yes" if met else "no")
+        self.rows.append((what, size, ours, anchor, ratio, goal, met))
+        self.say(f"ROW {what} [{size}]: ours {ours}; anchor {anchor}; ratio {ratio}; goal {goal}; met {met}")
 
     # -- subprocess measurement
     def measure(self, spec, env=SINGLE):
@@ -225,13 +252,14 @@ class Bench:
     def interleaved(self, spec, sides, reps, extra=None):
         """{side: [result, ...]}: sides alternate within each repetition."""
         res = {s: [] for s in sides}
+        self.progress(f"{spec['task']} {Path(spec['mesh']).name}: {reps} run(s) of {', '.join(sides)} (interleaved)")
         for r in range(reps):
             for s in sides:
                 sp = dict(spec, side=s, **(extra(s, r) if extra else {}))
                 t = time.perf_counter()
                 res[s].append(self.measure(sp))
-                self.say(f"  {spec['task']} {s} run {r + 1}/{reps}: cpu {res[s][-1]['cpu']:.3f} s, "
-                         f"wall {res[s][-1]['wall']:.3f} s (process {time.perf_counter() - t:.1f} s)")
+                self.progress(f"  {spec['task']} {s} run {r + 1}/{reps}: cpu {res[s][-1]['cpu']:.3f} s, "
+                              f"wall {res[s][-1]['wall']:.3f} s (process {time.perf_counter() - t:.1f} s)")
         return res
 
     # -- data
@@ -275,8 +303,9 @@ class Bench:
             o, g = med(res["ours"], "cpu"), med(res["igl"], "cpu")
             self.say(f"  n = {res['ours'][0]['n']}; max relative |L, M difference| = {res['igl'][-1]['diff']:.1e}; "
                      f"wall ours {med(res['ours'], 'wall') * 1e3:.1f} ms, igl {med(res['igl'], 'wall') * 1e3:.1f} ms")
-            self.row("cotmatrix + massmatrix (CPU, median of 5 calls per run)", label, f"{o * 1e3:.1f} ms",
-                     f"igl {g * 1e3:.1f} ms", f"{o / g:.2f}", f"≤ {GOAL_RATIO}", o / g <= GOAL_RATIO)
+            self.row("cotmatrix + massmatrix (CPU, median of 5 calls per run)", label,
+                     tcell(res["ours"], 1e3, "ms", 1), "igl " + tcell(res["igl"], 1e3, "ms", 1),
+                     ratio_cell(res["ours"], res["igl"]), f"≤ {GOAL_RATIO}", o / g <= GOAL_RATIO)
 
     def bbw(self):
         self.say(f"\n## bbw: bounded biharmonic weights, {HANDLES} FPS handles, vs igl.bbw (per-handle active set, rows normalised)")
@@ -319,8 +348,7 @@ class Bench:
                              f"(max violation, scaled by diag Q) {res['igl'][-1]['kkt']:.1e}")
                     for s in ("coupled", "per-handle"):
                         o = med(res[s], "cpu")
-                        self.row(f"bbw {s} vs igl.bbw (CPU)", label, f"{o:.2f} s (wall {med(res[s], 'wall'):.2f})",
-                                 f"igl {g:.2f} s (wall {med(res['igl'], 'wall'):.2f})",
+                        self.row(f"bbw {s} vs igl.bbw (CPU)", label, tcell(res[s]), "igl " + tcell(res["igl"]),
                                  ratio_cell(res[s], res["igl"]),
                                  f"≤ {GOAL_RATIO}" + ("; max|ΔW| ≤ 1e-5" if s == "per-handle" else ""),
                                  o / g <= GOAL_RATIO and (s != "per-handle" or d <= 1e-5))
@@ -379,54 +407,53 @@ class Bench:
                 o, g = med(res["ours"], "cpu"), med(res["scipy"], "cpu")
                 self.say(f"  k = {k}: max relative eigenvalue difference {rel:.1e}; λ_1 = {lo[1]:.4g}, λ_k-1 = {lo[-1]:.4g}")
                 self.row(f"LBO eigenpairs k = {k} vs scipy eigsh (CPU)", label,
-                         f"{o:.2f} s (wall {med(res['ours'], 'wall'):.2f})",
-                         f"scipy {g:.2f} s (wall {med(res['scipy'], 'wall'):.2f})",
+                         tcell(res["ours"]), "scipy " + tcell(res["scipy"]),
                          ratio_cell(res["ours"], res["scipy"]),
                          f"≤ {GOAL_RATIO}; Δλ/λ ≤ 1e-6", o / g <= GOAL_RATIO and rel <= 1e-6)
 
     def fbt(self):
-        self.say("\n## fbt: `deformlab bench fbt` (1 thread) vs FBT Table 1")
+        self.say("\n## fbt: `deformlab bench fbt` (1 thread) vs FBT Table 1, judged by CPU time")
         cmd = [self.a.cli, "bench", "fbt"] + (["--quick"] if self.a.quick else [])
         self.say(f"  $ (cd {ROOT} && {' '.join(cmd)})")
-        e = dict(os.environ)
-        e.update(SINGLE)
-        p = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, env=e)
+        self.progress(f"fbt: {' '.join(cmd[1:])} (its progress lines follow)")
+        w, c, p = run_timed(cmd, SINGLE, cwd=ROOT, echo=lambda ln: self.progress(f"  {ln}"))
         if p.returncode != 0:
             return self.skip("fbt", f"deformlab bench fbt failed: {p.stderr.strip()[-400:]}")
+        self.say(f"  the whole command: wall {w:.1f} s, CPU {c:.1f} s")
         lines = p.stdout.splitlines()
         for ln in lines:
             if ln.startswith("data:") or ln.startswith("config:"):
                 self.say(f"  {ln}")
-        head = next((i for i, ln in enumerate(lines) if ln.startswith("| class |")), None)
-        if head is None:
-            return self.skip("fbt", "no table in the output of deformlab bench fbt")
-        cols = [c.strip() for c in lines[head].strip("|").split("|")]
+        table = md_table(lines, "| class | n | f |")
+        cpu = {r["class"]: r for r in md_table(lines, "| class | n | 1 iter E_total main CPU")}
+        if not table or not cpu:
+            return self.skip("fbt", "no table (or no CPU table) in the output of deformlab bench fbt")
         seen = set()
-        for ln in lines[head + 2:]:
-            if not ln.startswith("|"):
-                break
-            cells = dict(zip(cols, (c.strip() for c in ln.strip("|").split("|"))))
+        for cells in table:
             cls = cells["class"]
             seen.add(cls)
-            full = float(cells["full solve (ms)"])
-            it = float(cells["1 iter E_total main (ms)"])
-            it_mn = float(cells["1 iter E_mn rich (ms)"])
+            t = cpu[cls]
             if cls not in PAPER_FULL:
-                self.say(f"  {cls}: no paper figure (full solve {full} ms)")
+                self.say(f"  {cls}: no paper figure (full solve CPU {t['full solve CPU (ms)']} ms, "
+                         f"wall {t['full solve wall (ms)']} ms)")
                 continue
-            self.row("FBT full solve after precompute (wall, 1 thread)", f"{cls} n={cells['n']}", f"{full:.1f} ms",
-                     f"paper {PAPER_FULL[cls]} ms", f"{full / PAPER_FULL[cls]:.2f}", f"≤ {GOAL_RATIO}",
-                     full / PAPER_FULL[cls] <= GOAL_RATIO)
-            self.row("FBT 1 iteration E_total main (wall, 1 thread)", f"{cls} n={cells['n']}",
-                     f"{it:.2f} ms (E_mn rich {it_mn:.2f})", f"paper {PAPER_ITER[cls]} ms",
-                     f"{it / PAPER_ITER[cls]:.2f}", f"≤ {GOAL_RATIO}", it / PAPER_ITER[cls] <= GOAL_RATIO)
+            for what, key, paper, extra in (
+                    ("FBT full solve after precompute (CPU, 1 thread)", "full solve", PAPER_FULL[cls], ""),
+                    ("FBT 1 iteration E_total main (CPU, 1 thread)", "1 iter E_total main", PAPER_ITER[cls],
+                     f"; E_mn rich CPU {t['1 iter E_mn rich CPU (ms)']} ms")):
+                cm, clo, chi = span_parse(t[f"{key} CPU (ms)"])
+                ratio = f"{cm / paper:.2f}" + (f" (runs {clo / paper:.2f}–{chi / paper:.2f})" if clo != chi else "")
+                self.row(what, f"{cls} n={cells['n']}",
+                         f"CPU {t[f'{key} CPU (ms)']} ms; wall {t[f'{key} wall (ms)']} ms{extra}",
+                         f"paper {paper} ms", ratio, f"≤ {GOAL_RATIO}", cm / paper <= GOAL_RATIO)
         for cls in PAPER_FULL:
             if cls not in seen:
                 self.skip(f"fbt {cls}", "not run with --quick (wolf and cat only)" if self.a.quick
                           else "class not in the data folder")
 
     def keypoints(self):
-        self.say("\n## keypoints: `deformlab keypoints` (n_c = 100, m = 1), 2 threads, wall time vs target")
+        self.say("\n## keypoints: `deformlab keypoints` (n_c = 100, m = 1), 2 threads, CPU time (both threads) "
+                 "vs target")
         d = Path(self.a.data) / "faust"
         cases = [("6.9k", d / "tr_reg_001.ply", d / "tr_reg_003.ply")]
         if not self.a.quick:
@@ -442,11 +469,13 @@ class Bench:
             walls, cpus = [], []
             # 27k sits near its target, so it gets the small sizes' runs
             # (a single run cannot tell a win from this machine's drift).
-            for r in range(self.reps_for(label, small=("6.9k", "27k"))):
+            reps = self.reps_for(label, small=("6.9k", "27k"))
+            self.progress(f"keypoints {label}: {reps} run(s)")
+            for r in range(reps):
                 with tempfile.TemporaryDirectory() as tmp:
                     cmd = [self.a.cli, "keypoints", "--source", str(A), "--deformed", str(A1),
                            "--candidates", "100", "--out", str(Path(tmp) / "kp")]
-                    w, c, p = run_timed(cmd, TWO)
+                    w, c, p = run_timed(cmd, TWO, echo=lambda ln: self.progress(f"    {ln}"))
                     if p.returncode != 0:
                         self.skip(f"keypoints {label}", f"failed: {p.stderr.strip()[-400:]}")
                         break
@@ -454,42 +483,86 @@ class Bench:
                     cpus.append(c)
                     log = json.loads((Path(tmp) / "kp" / "log.json").read_text())
                     kp = log.get("selection", {}).get("keypoints")
-                    self.say(f"  {label} run {r + 1}: wall {w:.1f} s, CPU {c:.1f} s, key points {kp}")
+                    self.progress(f"  keypoints {label} run {r + 1}/{reps}: CPU {c:.1f} s, wall {w:.1f} s, "
+                                  f"key points {kp}")
             else:
-                w, c = statistics.median(walls), statistics.median(cpus)
+                c = statistics.median(cpus)
                 t = KP_TARGET[label]
-                spread = f" (runs {min(walls) / t:.2f}–{max(walls) / t:.2f})" if len(walls) > 1 else ""
-                self.row("key point selection (wall, 2 threads)", label, f"{w:.1f} s (CPU {c:.1f})",
-                         f"target {t:.0f} s", f"{w / t:.2f}{spread}", "≤ 1", w <= t)
+                spread = f" (runs {min(cpus) / t:.2f}–{max(cpus) / t:.2f})" if len(cpus) > 1 else ""
+                self.row("key point selection (CPU of both threads, 2 threads)", label,
+                         f"CPU {span(cpus)} s; wall {span(walls)} s", f"target {t:.0f} s",
+                         f"{c / t:.2f}{spread}", "≤ 1", c <= t)
 
     def threads(self):
-        configs = self.a.suite or (QUICK_SUITE if self.a.quick else ["experiments/*.toml"])
-        self.say(f"\n## threads: `deformlab run {' '.join(configs)} --no-plots --threads N`, N = 1, 2")
-        import glob
-
-        files = sorted({f for c in configs for f in glob.glob(str(ROOT / c))})
-        if not files:
-            return self.skip("threads", f"no configs match {configs}")
-        walls = {1: [], 2: []}
-        tables = {}
-        reps = 1  # one run per thread count (the suite takes minutes)
+        """2 threads vs 1 on a slice of independent, CPU-bound work: by
+        default THREADS_SLICE, four cases that share nothing (each its own
+        key point selection, m = 1 pose), so two workers can each take two;
+        `--suite` runs those configs instead."""
+        load0 = loadavg1()
+        # The 1-minute load average also counts this benchmark's own earlier
+        # rows (the key point row runs 2 threads just before it, which alone
+        # lifts it above 0.5): a 3-second sample of the machine's busy cores
+        # while this process sleeps tells the other processes' load now.
+        # No verdict when the load average exceeds BUSY_LOAD, unless that
+        # sample shows the others idle (below IDLE_OTHERS cores).
+        others = busy_cores(3.0)
         with tempfile.TemporaryDirectory() as tmp:
+            if self.a.suite:
+                import glob
+
+                files = sorted({f for c in self.a.suite for f in glob.glob(str(ROOT / c))})
+                if not files:
+                    return self.skip("threads", f"no configs match {self.a.suite}")
+                what = f"{len(files)} configs"
+            else:
+                files = [str(Path(tmp) / "threads-slice.toml")]
+                Path(files[0]).write_text(THREADS_SLICE)
+                what = "synthetic slice: 4 independent cases"
+            self.say(f"\n## threads: `deformlab run {' '.join(Path(f).name for f in files)} --no-plots --threads N`, "
+                     f"N = 1, 2 ({what}); wall speed-up, CPU (user + sys) of each run beside it")
+            if not self.a.suite:
+                self.say("  slice: " + THREADS_SLICE_NOTE)
+            self.say(f"  1-minute load average before the row: {load0:.2f}; cores busy with other work in the "
+                     f"3 s before it: {others:.2f}")
+            runs = {1: [], 2: []}
+            during = []
+            tables = {}
+            reps = self.a.reps
+            self.progress(f"threads: {reps} run(s) of --threads 1 and 2 ({what})")
             for r in range(reps):
                 for n in (1, 2):
                     out = Path(tmp) / f"t{n}-{r}"
                     cmd = [self.a.cli, "run", *files, "--out", str(out), "--no-plots", "--quiet", "--threads", str(n)]
+                    s0 = cpu_sample()
                     w, c, p = run_timed(cmd, {k: str(n) for k in SINGLE}, cwd=ROOT)
+                    # The others' cores during the run: the machine's busy
+                    # cores less this run's own.
+                    during.append(busy_between(s0, cpu_sample()) - c / w)
                     if p.returncode != 0:
                         return self.skip("threads", f"run --threads {n} failed: {p.stderr.strip()[-400:]}")
-                    walls[n].append(w)
-                    self.say(f"  --threads {n} run {r + 1}: wall {w:.1f} s, CPU {c:.1f} s")
+                    runs[n].append((w, c))
+                    self.progress(f"  threads --threads {n} run {r + 1}/{reps}: wall {w:.1f} s, CPU {c:.1f} s "
+                                  f"({c / w:.2f} cores; other processes {during[-1]:.2f} cores)")
                     tables[n] = read_cases(out)
             same, detail = compare_cases(tables[1], tables[2])
-        w1, w2 = statistics.median(walls[1]), statistics.median(walls[2])
-        self.say(f"  {len(files)} configs; non-timing columns of cases.csv equal: {same} {detail}")
-        self.row(f"suite 2 threads vs 1 ({len(files)} configs, wall)", "suite" if not self.a.quick else "quick slice",
-                 f"{w2:.1f} s on 2", f"{w1:.1f} s on 1", f"{w1 / w2:.3f}×", f"≥ {GOAL_THREADS}× and equal results",
-                 w1 / w2 >= GOAL_THREADS and same)
+        load1 = loadavg1()
+        w1, w2 = (statistics.median(w for w, _ in runs[n]) for n in (1, 2))
+        speed = [a[0] / b[0] for a, b in zip(runs[1], runs[2])]
+        self.say(f"  non-timing columns of cases.csv equal on 1 and 2 threads: {same} {detail}")
+        self.say(f"  1-minute load average: {load0:.2f} before the row, {load1:.2f} after")
+        worst = max(during)
+        self.say(f"  other processes during the runs: {worst:.2f} cores at most")
+        busy = (load0 > BUSY_LOAD and not others < IDLE_OTHERS) or not worst < BUSY_DURING
+        ratio = f"{w1 / w2:.2f}×" + (f" (runs {min(speed):.2f}–{max(speed):.2f})" if len(speed) > 1 else "")
+        met = w1 / w2 >= GOAL_THREADS and same
+        if busy:
+            met = (f"machine busy: verdict not meaningful (load {load0:.2f}, others {others:.2f} cores before "
+                   f"the row, up to {worst:.2f} during it)" + ("" if same else "; results differ"))
+        self.row(f"2 threads vs 1 ({what}; wall speed-up)", "suite" if self.a.suite else "slice",
+                 f"2 threads: wall {span([w for w, _ in runs[2]], prec=1)} s, CPU {span([c for _, c in runs[2]], prec=1)} s",
+                 f"1 thread: wall {span([w for w, _ in runs[1]], prec=1)} s, CPU {span([c for _, c in runs[1]], prec=1)} s",
+                 f"{ratio}; load {load0:.2f} (others {others:.2f} cores before, ≤ {worst:.2f} during)",
+                 f"≥ {GOAL_THREADS}× wall on an idle machine and equal results", met)
 
     def nicp(self):
         self.say("\n## nicp: Amberg NICP per iteration vs trimesh.registration.nricp_amberg")
@@ -506,7 +579,116 @@ class Bench:
         return head + "".join("| " + " | ".join(cell(c) for c in r) + " |\n" for r in self.rows)
 
 
-QUICK_SUITE = ["experiments/fig14.toml", "experiments/fig4.toml", "experiments/fbt-fig3.toml"]
+# The threads row's slice: one cheap method on four cases that share
+# nothing (each source with itself, one pose per case, so each case runs its
+# own key point selection): embarrassingly parallel across cases.
+THREADS_SLICE = """name = "threads-slice"
+description = "bench_anchors.py threads row: four independent synthetic cases"
+seed = 0
+
+[dataset.synthetic]
+subjects = 2
+poses = 3
+resolution = 1
+
+[cases]
+targets = []
+include_self = true
+per_pose = true
+
+[defaults]
+mode = "fast"
+n_candidates = 40
+epsilon = 0.03
+
+[[methods]]
+name = "automatic"
+kind = "bdt"
+"""
+THREADS_SLICE_NOTE = ("synthetic subjects 2 × poses 3 at resolution 1 (1.7k vertices), each subject with itself, "
+                      "one case per pose (4 cases, each its own fast key point selection, n_c = 40), method bdt")
+# Above this 1-minute load average (before the row) the machine is not idle
+# and the threads row gives no verdict.
+BUSY_LOAD = 0.5
+# ... unless other processes used fewer cores than this in the 3 s before it
+# (the load average then being this benchmark's own earlier rows).
+IDLE_OTHERS = 0.1
+# No verdict either when other processes used this many cores or more during
+# any of the row's runs (a load that arrived after the row began).
+BUSY_DURING = 0.2
+
+
+def loadavg1():
+    try:
+        return os.getloadavg()[0]
+    except OSError:
+        return float("nan")
+
+
+def cpu_sample():
+    """(total, idle + iowait) ticks of the whole machine from /proc/stat, or
+    None where unavailable."""
+    try:
+        with open("/proc/stat") as fh:
+            v = [int(x) for x in fh.readline().split()[1:]]
+        return sum(v), v[3] + v[4]
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def busy_between(a, b):
+    """Cores busy on the whole machine between two cpu_sample()s (NaN when
+    unavailable)."""
+    if a is None or b is None or b[0] <= a[0]:
+        return float("nan")
+    return (os.cpu_count() or 1) * (1 - (b[1] - a[1]) / (b[0] - a[0]))
+
+
+def busy_cores(seconds):
+    """Cores busy on the whole machine over `seconds` of this process
+    sleeping: the other processes' load now."""
+    a = cpu_sample()
+    time.sleep(seconds)
+    return busy_between(a, cpu_sample())
+
+
+def span(values, scale=1.0, prec=2):
+    """"median (min–max)" of values × scale (the median alone for one)."""
+    v = [x * scale for x in values]
+    m = statistics.median(v)
+    return f"{m:.{prec}f}" + (f" ({min(v):.{prec}f}–{max(v):.{prec}f})" if len(v) > 1 else "")
+
+
+def span_parse(cell):
+    """(median, min, max) of a "median (min–max)" cell."""
+    import re
+
+    m = re.fullmatch(r"\s*([-\d.eE+naN]+)\s*(?:\(([-\d.eE+naN]+)–([-\d.eE+naN]+)\))?\s*", cell)
+    if not m:
+        raise ValueError(f"not a 'median (min–max)' cell: {cell!r}")
+    med_ = float(m.group(1))
+    return (med_, float(m.group(2)), float(m.group(3))) if m.group(2) else (med_, med_, med_)
+
+
+def tcell(results, scale=1.0, unit="s", prec=2):
+    """CPU and wall time of a side's runs, each median (min–max)."""
+    return (f"CPU {span([r['cpu'] for r in results], scale, prec)} {unit}; "
+            f"wall {span([r['wall'] for r in results], scale, prec)} {unit}")
+
+
+def md_table(lines, head_prefix):
+    """The rows (dicts by column) of the first Markdown table whose header
+    line starts with head_prefix."""
+    head = next((i for i, ln in enumerate(lines) if ln.startswith(head_prefix)), None)
+    if head is None:
+        return []
+    cols = [c.strip() for c in lines[head].strip("|").split("|")]
+    out = []
+    for ln in lines[head + 2:]:
+        if not ln.startswith("|"):
+            break
+        out.append(dict(zip(cols, (c.strip() for c in ln.strip("|").split("|")))))
+    return out
 
 
 def med(results, key):
@@ -532,16 +714,33 @@ def fit_exponent(pts):
     return sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sum((x - mx) ** 2 for x in xs)
 
 
-def run_timed(cmd, env, cwd=None):
-    """(wall, CPU of the child, CompletedProcess)."""
+def run_timed(cmd, env, cwd=None, echo=None):
+    """(wall, CPU of the child, CompletedProcess): the CPU time is the
+    user + sys of the child alone, the delta of this process's
+    RUSAGE_CHILDREN around it. `echo(line)` is called with each line of the
+    child's stderr as it arrives (its progress); stdout is collected."""
+    import resource
+    import threading
+
     e = dict(os.environ)
     e.update(env)
-    r0 = os.times()
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
-    p = subprocess.run(cmd, capture_output=True, text=True, env=e, cwd=cwd)
+    child = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=e, cwd=cwd)
+    out = []
+    reader = threading.Thread(target=lambda: out.append(child.stdout.read()))
+    reader.start()
+    err = []
+    for ln in child.stderr:
+        err.append(ln)
+        if echo:
+            echo(ln.rstrip("\n"))
+    reader.join()
+    code = child.wait()
     w = time.perf_counter() - t
-    r1 = os.times()
-    return w, (r1.children_user - r0.children_user) + (r1.children_system - r0.children_system), p
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+    return w, cpu, subprocess.CompletedProcess(cmd, code, "".join(out), "".join(err))
 
 
 def read_cases(root: Path):
@@ -573,8 +772,8 @@ def main() -> int:
     ap.add_argument("--reps-large", type=int, default=1, help="runs per side at 27k and above (default 1)")
     ap.add_argument("--big", action="store_true", help="also key point selection and bounded weights at 108k, "
                     "and the coupled weights' exponent on the synthetic resolutions 2-4 (about half an hour)")
-    ap.add_argument("--suite", nargs="+", help="configs for the threads row (globs relative to the repository; "
-                    f"default experiments/*.toml, with --quick {' '.join(QUICK_SUITE)})")
+    ap.add_argument("--suite", nargs="+", help="configs for the threads row instead of its synthetic slice "
+                    "(globs relative to the repository, e.g. 'experiments/*.toml')")
     ap.add_argument("--out", help="also write the report (Markdown) to this file")
     ap.add_argument("--data", default=os.environ.get("DEFORMLAB_DATA") or str(ROOT.parent / "shared" / "data"))
     ap.add_argument("--cli", default=os.environ.get("DEFORMLAB_CLI") or str(ROOT / "target" / "release" / "deformlab"))
@@ -613,6 +812,7 @@ def main() -> int:
     for h in header:
         b.say(h)
     t0 = time.perf_counter()
+    b.progress(f"start: rows {', '.join(rows)}")
 
     def report(after, done):
         # Rewritten after every row, so an interrupted run leaves its rows.

@@ -12,7 +12,9 @@
 #    from the package index (and maturin to build the binding); an anchor
 #    that does not install is reported as SKIP by the benchmark;
 # 2. builds the CLI (cargo build --release) and the Python binding of this
-#    checkout (maturin build --release) and installs the wheel there;
+#    checkout (maturin build --release, into the same target folder: it
+#    reuses the library the CLI build compiled, and the script fails if the
+#    library or faer is compiled a second time) and installs the wheel there;
 # 3. runs scripts/bench_anchors.py with the venv's Python from the
 #    repository root (deformlab bench fbt finds ../shared/data from there).
 #
@@ -43,8 +45,18 @@ echo "== build: CLI and Python binding (release)"
 cargo build --locked --release
 wheels="$CARGO_TARGET_DIR/wheels"
 rm -f "$wheels"/deformlab-*.whl
-PYO3_PYTHON="$py" "$venv/bin/maturin" build --release --locked --quiet \
-  -m python/Cargo.toml --interpreter "$py" --out "$wheels"
+build_log=$(mktemp)
+PYO3_PYTHON="$py" "$venv/bin/maturin" build --release --locked \
+  -m python/Cargo.toml --interpreter "$py" --out "$wheels" 2>&1 | tee "$build_log"
+# The binding links the library the line above compiled (the root
+# Cargo.toml asks for the binding's feature sets; as in scripts/test.sh).
+# A second compilation costs minutes on a shared machine: refuse it.
+if grep -qE "Compiling (deformlab|faer) v" "$build_log"; then
+  echo "error: the binding compiled the library a second time (the feature sets of the root and python/ differ; compare 'cargo tree -e features' of the two)" >&2
+  rm -f "$build_log"
+  exit 1
+fi
+rm -f "$build_log"
 "$py" -m pip install --quiet --force-reinstall --no-deps "$wheels"/deformlab-*.whl
 
 echo "== benchmark"

@@ -139,25 +139,78 @@ pub(crate) fn time_cpu<T>(reps: usize, mut f: impl FnMut() -> Result<T>) -> Resu
     Ok((wall, median(cpu), last))
 }
 
-/// CPU time (s) used so far by the live threads of this process, from
-/// `/proc/self/task/*/schedstat` (Linux); `None` where unavailable.
-pub fn cpu_seconds() -> Option<f64> {
-    let mut ns = 0u64;
-    let mut any = false;
-    for entry in std::fs::read_dir("/proc/self/task").ok()?.flatten() {
-        let Ok(text) = std::fs::read_to_string(entry.path().join("schedstat")) else {
-            continue;
-        };
-        if let Some(v) = text
-            .split_whitespace()
-            .next()
-            .and_then(|t| t.parse::<u64>().ok())
-        {
-            ns += v;
-            any = true;
+/// Wall and CPU times (s) of each of the repetitions of [`time_runs`].
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Runs {
+    /// Wall time of each run.
+    pub wall: Vec<f64>,
+    /// CPU time (user + sys, all threads of the process, from
+    /// [`cpu_seconds`]; `NaN` if unavailable) of each run.
+    pub cpu: Vec<f64>,
+}
+
+impl Runs {
+    /// `"median (min–max)"` of `v` scaled by `scale` with `prec` decimals
+    /// (just the median for a single run).
+    fn cell(v: &[f64], scale: f64, prec: usize) -> String {
+        let med = scale * median(v.to_vec());
+        if v.len() < 2 {
+            return format!("{med:.prec$}");
         }
+        let lo = scale * v.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = scale * v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        format!("{med:.prec$} ({lo:.prec$}–{hi:.prec$})")
     }
-    any.then_some(ns as f64 * 1e-9)
+
+    /// The CPU cell: median (min–max) × `scale`.
+    pub fn cpu_cell(&self, scale: f64, prec: usize) -> String {
+        Self::cell(&self.cpu, scale, prec)
+    }
+
+    /// The wall cell: median (min–max) × `scale`.
+    pub fn wall_cell(&self, scale: f64, prec: usize) -> String {
+        Self::cell(&self.wall, scale, prec)
+    }
+}
+
+/// Like [`time_cpu`], returning every run's wall and CPU time instead of
+/// their medians.
+pub(crate) fn time_runs<T>(reps: usize, mut f: impl FnMut() -> Result<T>) -> Result<(Runs, T)> {
+    let mut runs = Runs::default();
+    let mut last = None;
+    for _ in 0..reps.max(1) {
+        drop(last.take());
+        let (t, c0) = (Instant::now(), cpu_seconds());
+        let r = f()?;
+        runs.wall.push(t.elapsed().as_secs_f64());
+        runs.cpu.push(match (c0, cpu_seconds()) {
+            (Some(a), Some(b)) => b - a,
+            _ => f64::NAN,
+        });
+        last = Some(r);
+    }
+    let last = last.ok_or_else(|| Error::invalid("no repetitions"))?;
+    Ok((runs, last))
+}
+
+/// CPU time (s, user + sys) used so far by this process, all its threads
+/// (`clock_gettime(CLOCK_PROCESS_CPUTIME_ID)`, to the nanosecond, the
+/// running threads included); `None` where unavailable.
+#[cfg(unix)]
+pub fn cpu_seconds() -> Option<f64> {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec for the call.
+    let ok = unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) } == 0;
+    ok.then_some(ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9)
+}
+
+/// CPU time of this process: not available off Unix.
+#[cfg(not(unix))]
+pub fn cpu_seconds() -> Option<f64> {
+    None
 }
 
 /// The 1-minute load average from `/proc/loadavg` (as printed by `uptime`),
