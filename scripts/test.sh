@@ -58,11 +58,12 @@ rm -f "$wheels"/deformlab-*.whl
 build_log=$(mktemp)
 PYO3_PYTHON="$py" "$venv/bin/maturin" build --release --locked \
   -m python/Cargo.toml --interpreter "$py" --out "$wheels" 2>&1 | tee "$build_log"
-# The root Cargo.toml asks for the binding's feature sets of the crates they
-# share, so the binding reuses what the tests compiled. Hold that: a second
-# compilation of the library costs minutes.
+# python/ is a member of the root workspace, and the root Cargo.toml asks for
+# the binding's feature sets of the crates they share, so the binding reuses
+# what the tests compiled. Hold that: a second compilation of the library
+# costs minutes.
 if grep -qE "Compiling (deformlab|faer) v" "$build_log"; then
-  echo "error: the binding compiled the library a second time (the feature sets of the root and python/ differ; compare 'cargo tree -e features' of the two)" >&2
+  echo "error: the binding compiled the library a second time (is python/ still a member of the root workspace, and do the feature sets of the root and python/ agree? compare 'cargo tree -e features' of the two)" >&2
   rm -f "$build_log"
   exit 1
 fi
