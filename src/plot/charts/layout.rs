@@ -71,6 +71,54 @@ pub(super) fn outside_or_below(
     }
 }
 
+/// A legend below the plot: the entries (indices) of each row and its
+/// rectangle.
+pub(super) type BelowLegend = (Vec<Vec<usize>>, Rect);
+
+/// Room for the legend in `body`: the legend's place (`Outside` turns
+/// `Below` when it does not fit, [`outside_or_below`]), the plot area, the
+/// x of a legend right of the plot, and a legend below it.
+pub(super) fn room_for_legend<DB: DrawingBackend>(
+    body: &DrawingArea<DB, Shift>,
+    legend: Option<LegendPos>,
+    lsize: (f64, f64),
+    entries: &[LegendEntry],
+    m: Metrics,
+) -> (
+    Option<LegendPos>,
+    DrawingArea<DB, Shift>,
+    Option<f64>,
+    Option<BelowLegend>,
+) {
+    let (bw, bh) = body.dim_in_pixel();
+    let legend = outside_or_below(legend, lsize, bw as f64, m);
+    let mut below = None;
+    let (plot_area, legend_x) = match legend {
+        Some(LegendPos::Outside) => {
+            let lw = (lsize.0 + m.px(24.0)) as u32;
+            let (a, _) = body.split_horizontally(bw.saturating_sub(lw));
+            (a, Some(bw.saturating_sub(lw) as f64 + m.px(8.0)))
+        }
+        Some(LegendPos::Below) => {
+            let labels: Vec<&str> = entries.iter().map(|e| e.label).collect();
+            let rows = below_rows(&labels, bw as f64 / m.s - 20.0);
+            let lh = m.px(below_height(rows.len())).round() as u32;
+            let (a, b) = body.split_vertically(bh.saturating_sub(lh));
+            let (xr, yr) = b.get_pixel_range();
+            let area = (
+                xr.start as f64,
+                yr.start as f64,
+                xr.end as f64,
+                yr.end as f64,
+            );
+            below = Some((rows, area));
+            (a, None)
+        }
+        _ => (body.clone(), None),
+    };
+    (legend, plot_area, legend_x, below)
+}
+
 /// Gap between legend entries of a row below the plot.
 const ROW_GAP: f64 = 20.0;
 

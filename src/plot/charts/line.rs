@@ -8,10 +8,10 @@ use plotters::prelude::*;
 
 use super::backend::{bitmap, render_chart, ChartDraw};
 use super::layout::{
-    below_height, below_rows, draw_header, draw_legend_below, draw_marker, draw_polyline_px,
-    draw_y_lines, header_height, legend_below, legend_size, log_range, outside_or_below,
-    place_legend, tick_formatter, to_px, x_ticks, y_desc_lines, y_label_area, y_lines_extra,
-    LegendEntry, LegendPos, Metrics, Rect, Swatch, Y_TICKS,
+    draw_header, draw_legend_below, draw_marker, draw_polyline_px, draw_y_lines, header_height,
+    legend_below, legend_size, log_range, place_legend, room_for_legend, tick_formatter, to_px,
+    x_ticks, y_desc_lines, y_label_area, y_lines_extra, LegendEntry, LegendPos, Metrics, Rect,
+    Swatch, Y_TICKS,
 };
 use super::{de, ChartStyle, DResult};
 use crate::plot::axis::Axis;
@@ -256,32 +256,7 @@ fn draw_line_chart<DB: DrawingBackend>(
         })
         .collect();
     let lsize = legend_size(root, &entries, m)?;
-    let (bw, bh) = body.dim_in_pixel();
-    let legend = outside_or_below(legend, lsize, bw as f64, m);
-    let mut below = None;
-    let (plot_area, legend_x) = match legend {
-        Some(LegendPos::Outside) => {
-            let lw = (lsize.0 + m.px(24.0)) as u32;
-            let (a, _) = body.split_horizontally(bw.saturating_sub(lw));
-            (a, Some(bw.saturating_sub(lw) as f64 + m.px(8.0)))
-        }
-        Some(LegendPos::Below) => {
-            let labels: Vec<&str> = entries.iter().map(|e| e.label).collect();
-            let rows = below_rows(&labels, bw as f64 / m.s - 20.0);
-            let lh = m.px(below_height(rows.len())).round() as u32;
-            let (a, b) = body.split_vertically(bh.saturating_sub(lh));
-            let (xr, yr) = b.get_pixel_range();
-            let area = (
-                xr.start as f64,
-                yr.start as f64,
-                xr.end as f64,
-                yr.end as f64,
-            );
-            below = Some((rows, area));
-            (a, None)
-        }
-        _ => (body.clone(), None),
-    };
+    let (legend, plot_area, legend_x, below) = room_for_legend(&body, legend, lsize, &entries, m);
     let (plot, obstacles) = draw_line_body(
         root,
         &plot_area,
