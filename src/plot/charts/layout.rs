@@ -130,10 +130,15 @@ fn below_entry_width(label: &str) -> f64 {
 /// A legend below the plot: the entries (indices) of each row, filled left
 /// to right within `width` reference pixels.
 pub(super) fn below_rows(labels: &[&str], width: f64) -> Vec<Vec<usize>> {
+    pack_rows(labels.iter().map(|l| below_entry_width(l)), width)
+}
+
+/// Items of the given widths, in order, into rows no wider than `width`
+/// (an item wider than that gets a row of its own): the indices per row.
+pub(super) fn pack_rows(widths: impl IntoIterator<Item = f64>, width: f64) -> Vec<Vec<usize>> {
     let mut rows: Vec<Vec<usize>> = Vec::new();
     let mut used = 0.0;
-    for (i, l) in labels.iter().enumerate() {
-        let w = below_entry_width(l);
+    for (i, w) in widths.into_iter().enumerate() {
         match rows.last_mut() {
             Some(r) if used + w <= width => {
                 r.push(i);

@@ -73,22 +73,12 @@ fn shared_styles(f: &crate::plot::LinePanels) -> SharedStyles {
 
 /// The shared legend's rows (entry indices) within `width` reference pixels.
 fn legend_rows(labels: &[String], width: f64) -> Vec<Vec<usize>> {
-    let mut rows: Vec<Vec<usize>> = Vec::new();
-    let mut used = 0.0;
-    for (i, l) in labels.iter().enumerate() {
-        let w = LEGEND_ENTRY + font::text_size(l, 19.0, false).0 as f64;
-        match rows.last_mut() {
-            Some(r) if used + w <= width => {
-                r.push(i);
-                used += w;
-            }
-            _ => {
-                rows.push(vec![i]);
-                used = w;
-            }
-        }
-    }
-    rows
+    super::layout::pack_rows(
+        labels
+            .iter()
+            .map(|l| LEGEND_ENTRY + font::text_size(l, 19.0, false).0 as f64),
+        width,
+    )
 }
 
 struct PanelsJob<'a> {
