@@ -240,6 +240,12 @@ bounds!(
     Spread: 0.0, crate::data::synthetic::MAX_SPREAD
 );
 bounds!(
+    /// `[1e-15, 1e-3]`: an active-set tolerance in weight units (below
+    /// 1e-15 the test is under the rounding of `Q x`; above 1e-3 the
+    /// weights are visibly off).
+    ActiveSetTol: 1e-15, 1e-3
+);
+bounds!(
     /// `[0.3, 2]`: the vertex ratio of the synthetic remesh.
     RemeshRatio: 0.3, 2.0
 );

@@ -66,6 +66,17 @@ pub struct WeightsArgs {
         "Local refinement of the coupled support iteration, 0..=64 (0 = off)",
         BbwOptions::default().coupled_local_hops))]
     pub coupled_local_hops: Option<usize>,
+    /// Help text (with the library's default) in `help` below.
+    #[arg(long, value_parser = Tol::parse, help = super::keypoints::default_help(
+        "Active-set tolerance of the per-handle weights in weight units, 1e-15..=1e-3 (their \
+         optimality test; smaller is tighter and slower)",
+        format!("{:e}", BbwOptions::default().tol)))]
+    pub tol: Option<f64>,
+    /// Help text (with the library's default) in `help` below.
+    #[arg(long, value_parser = Tol::parse, help = super::keypoints::default_help(
+        "Active-set tolerance of the coupled weights (both stages), 1e-15..=1e-3",
+        format!("{:e}", BbwOptions::default().coupled_tol)))]
+    pub coupled_tol: Option<f64>,
     /// Write the weights (n × handles) as CSV.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -82,6 +93,7 @@ pub struct WeightsArgs {
 
 type Handles = deformlab::experiment::range::Int<1, 1000>;
 type MaxIter = deformlab::experiment::range::Int<1, 100_000>;
+type Tol = deformlab::experiment::range::Real<deformlab::experiment::range::ActiveSetTol>;
 type Hops = deformlab::experiment::range::Int<0, 64>;
 
 /// Handles sampled when neither `--handles` nor `--handle-vertices` is given.
@@ -130,6 +142,8 @@ pub fn run(a: WeightsArgs) -> Result<ExitCode> {
         max_iter: a.max_iter.unwrap_or(d.max_iter),
         local_hops: a.local_hops.unwrap_or(d.local_hops),
         coupled_local_hops: a.coupled_local_hops.unwrap_or(d.coupled_local_hops),
+        tol: a.tol.unwrap_or(d.tol),
+        coupled_tol: a.coupled_tol.unwrap_or(d.coupled_tol),
         ..d
     };
     let progress = super::progress::for_command("weights");
@@ -147,7 +161,12 @@ pub fn run(a: WeightsArgs) -> Result<ExitCode> {
     println!("handles: {} {:?}", handles.len(), handles);
     println!(
         "mode: {:?}, max_iter {}, tol {:.0e}",
-        opts.mode, opts.max_iter, opts.tol
+        opts.mode,
+        opts.max_iter,
+        match opts.mode {
+            WeightMode::Coupled => opts.coupled_tol,
+            _ => opts.tol,
+        }
     );
     println!(
         "precompute (L, M, Q): {:.2} s wall, {}",

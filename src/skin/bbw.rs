@@ -72,7 +72,8 @@
 //! * The multiplier test is per row, `|g_i| > tol·Q_ii` (scale-free): a
 //!   global scale (`tol·max|b|`) stopped early with wrong active sets on
 //!   FAUST because `Q_ii` varies over orders of magnitude with the triangle
-//!   sizes. `tol = 1e-8` is the default: 1e-6 moved the weights by 4e-3.
+//!   sizes. `tol = 1e-10` is the default (within 1e-6 of a tight solve;
+//!   see [`BbwOptions::tol`]); 1e-6 moved the weights by 4e-3.
 //!
 //! **Measured** (`deformlab bench bbw`: FAUST `tr_reg_001`, 6890 vertices,
 //! 10 FPS handles, release build, medians of 3 runs; the 1-thread Coupled
@@ -179,23 +180,37 @@ pub struct BbwOptions {
     /// 1000 is a guard against cycling, not a budget: a converging solve
     /// stops earlier.
     pub max_iter: usize,
-    /// Active-set tolerance, in weight units: a bound may be violated by at
-    /// most `tol` before the vertex is fixed, and a fixed vertex is released
-    /// when its multiplier `g_i` would move it by more than `tol` on its own
-    /// (`|g_i| > tol·Q_ii`, wrong sign). Results are clamped to the bounds.
-    /// Measured on FAUST (10 handles, PerHandle): 1e-8 gives weights within
-    /// 1.8e-6 of a 1e-11 solve (energy within 2e-9 relative); 1e-6 already
-    /// moves weights by 4e-3, so it is not loosened for speed. The test is
-    /// per vertex, and `Q` is ill-conditioned: with 6 FPS handles on the
-    /// same mesh, 1e-8 stops 3.4e-4 (normalised weights; Coupled 8.2e-5)
-    /// from a 1e-13 solve, whose energy is lower by 1.3e-6 relative — small
-    /// bands where the optimum is below about 1e-3 stay at the bound.
-    /// libigl's `bbw` lands within 4.8e-7 of a 1e-14 solve there, so that
-    /// gap to it is ours; 1e-10 closes it to 9.1e-7 at 2.4× the active-set
-    /// time (197 → 489 factorisations), a cost the exact evaluations of key
-    /// point selection would pay (`results/bench/README.md`, afternoon of
-    /// 2026-12-03).
+    /// Active-set tolerance of [`WeightMode::PerHandle`], in weight units:
+    /// a bound may be violated by at most `tol` before the vertex is fixed,
+    /// and a fixed vertex is released when its multiplier `g_i` would move
+    /// it by more than `tol` on its own (`|g_i| > tol·Q_ii`, wrong sign).
+    /// Results are clamped to the bounds. The test is per vertex and `Q` is
+    /// ill-conditioned, so a band of vertices whose optimum is small but
+    /// positive can stay at the bound although each multiplier passes the
+    /// test: the weights' distance to a tight solve is far above `tol`.
+    /// Measured 2026-12-05 (6 FPS handles, normalised weights, max |ΔW| to
+    /// a 1e-13 solve whose KKT residual is 1e-13; CPU s on one thread;
+    /// `igl.bbw` 4.8 s at 6.9k, 69.5 s at 28k):
+    ///
+    /// | tol | FAUST 6.9k: max \|ΔW\| | CPU s | TOSCA cat0 28k: max \|ΔW\| | CPU s |
+    /// |---|---|---|---|---|
+    /// | 1e-8 (the default until then) | 3.4e-4 | 0.31 | – | 6.2 |
+    /// | 1e-9 | 3.7e-6 | 0.44 | 9.2e-6 | 9.2 |
+    /// | **1e-10** | 9.1e-7 | 0.55 | 5.3e-7 | 11.6 |
+    /// | 1e-13 | 0 | 0.72 | 0 | 24.3 |
+    ///
+    /// 1e-10, the default, stays within 1e-6 of the tight solve at 0.11×
+    /// and 0.17× `igl.bbw`'s CPU time. (`igl.bbw` itself is 4.8e-7 from it
+    /// at 6.9k but 1.6e-3 at 28k, KKT residual 2.8e-6: it stopped early.)
+    /// 1e-6 moves weights by 4e-3.
     pub tol: f64,
+    /// Active-set tolerance of [`WeightMode::Coupled`], in both of its
+    /// stages (the per-handle warm start and the support iteration; the
+    /// test of the latter is the same per-row test as `tol`'s). Kept at
+    /// 1e-8: tightening it to 1e-10 doubles the coupled solve (FAUST 6.9k,
+    /// 6 FPS handles: 4.6 → 9.5 s CPU, weights 8.2e-5 → 7.1e-7 from a
+    /// 1e-13 solve), and Coupled is not the default mode.
+    pub coupled_tol: f64,
     /// Optional ADMM warm start (box constraints, all handles at once, one
     /// factorisation) for the initial active sets of the per-handle solves:
     /// `admm.max_iter` iterations are run (`gap_tol = 0`). The default 0
@@ -238,7 +253,8 @@ impl Default for BbwOptions {
         BbwOptions {
             mode: WeightMode::default(),
             max_iter: 1000,
-            tol: 1e-8,
+            tol: 1e-10,
+            coupled_tol: 1e-8,
             admm: AdmmOptions {
                 max_iter: 0,
                 gap_tol: 0.0,
@@ -553,13 +569,15 @@ impl Biharmonic {
                 fac.try_solve(&(-&b))?
             }
             WeightMode::PerHandle => {
-                let (raw, unbounded) = per_handle_raw(&qff, &b, opts, &starts, &mut report)?;
+                let (raw, unbounded) =
+                    per_handle_raw(&qff, &b, opts, opts.tol, &starts, &mut report)?;
                 let wf = normalise_rows(&raw, &unbounded);
                 report.unnormalized = Some(raw);
                 wf
             }
             WeightMode::Coupled => {
-                let (raw, unbounded) = per_handle_raw(&qff, &b, opts, &starts, &mut report)?;
+                let (raw, unbounded) =
+                    per_handle_raw(&qff, &b, opts, opts.coupled_tol, &starts, &mut report)?;
                 let mut x0 = normalise_rows(&raw, &unbounded);
                 report.unnormalized = Some(raw);
                 drop_small_entries(&mut x0, opts.coupled_support_threshold);
@@ -569,7 +587,7 @@ impl Biharmonic {
                     &b,
                     &x0,
                     opts.max_iter,
-                    opts.tol,
+                    opts.coupled_tol,
                     opts.coupled_local_hops,
                 )?;
                 report.seconds[2] = clock.elapsed().as_secs_f64();
@@ -618,6 +636,7 @@ fn per_handle_raw(
     qff: &SparseMatrix,
     b: &DMatrix<f64>,
     opts: &BbwOptions,
+    tol: f64,
     starts: &[Option<Vec<f64>>],
     report: &mut BbwReport,
 ) -> Result<(DMatrix<f64>, DMatrix<f64>)> {
@@ -666,7 +685,7 @@ fn per_handle_raw(
                     &from_warm
                 }
             };
-            let s = qp.solve(&bk, 0.0, 1.0, Some(x0), opts.max_iter, opts.tol);
+            let s = qp.solve(&bk, 0.0, 1.0, Some(x0), opts.max_iter, tol);
             let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             progress::update(&step, d, nh);
             (k, s)
