@@ -93,7 +93,7 @@ pub struct WeightsArgs {
 
 type Handles = deformlab::experiment::range::Int<1, 1000>;
 type MaxIter = deformlab::experiment::range::Int<1, 100_000>;
-type Tol = deformlab::experiment::range::Real<deformlab::experiment::range::ActiveSetTol>;
+type Tol = deformlab::methods::spec::BbwTolerance;
 type Hops = deformlab::experiment::range::Int<0, 64>;
 
 /// Handles sampled when neither `--handles` nor `--handle-vertices` is given.

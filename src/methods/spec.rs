@@ -19,6 +19,9 @@ pub type NCandidates = Int<1, 100_000>;
 pub type MaxKeypoints = Int<1, 1000>;
 /// Range of `epsilon` (and `--epsilon`), unit-sphere units.
 pub type Epsilon = Real<NonNegative>;
+/// Active-set tolerance of bounded biharmonic weights (`deformlab weights
+/// --tol`, `--coupled-tol`; Python `bbw(tol=…)`).
+pub type BbwTolerance = Real<crate::range::ActiveSetTol>;
 
 /// What an FBT method measures (see the module docs).
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
