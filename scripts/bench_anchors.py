@@ -90,6 +90,9 @@ KP_TARGET = {"6.9k": 10.0, "27k": 30.0, "108k": 60.0}
 # Goals of the ratio (ours / anchor): at most 1 = at least as fast as the
 # anchor, unless a row states another goal.
 GOAL_RATIO = 1.0
+# Issue 42: coupled (Eq. 1) weights at 0.8x igl.bbw's CPU time, per-handle
+# weights at 0.25x and within 1e-5 of a tight solve.
+GOAL_BBW = {"coupled": 0.8, "per-handle": 0.25}
 GOAL_THREADS = 1.7
 HANDLES = 6
 SIGMA = -1e-8  # shift of scipy's shift-invert (L - σM is positive definite)
@@ -148,7 +151,8 @@ def worker(spec: dict) -> dict:
                 return W, W / W.sum(axis=1, keepdims=True)
 
         else:
-            fn = lambda: dl.bbw(V, F, h, mode=side)  # noqa: E731
+            tol = {"tol": spec["tol"]} if "tol" in spec else {}
+            fn = lambda: dl.bbw(V, F, h, mode=side, **tol)  # noqa: E731
         W, out["wall"], out["cpu"] = timed(fn)
         if side == "igl":  # untimed: igl's own optimality (KKT) before normalisation
             out["kkt"] = kkt_residual(dl, V, F, h, W[0])
@@ -337,21 +341,30 @@ class Bench:
                 for s in ("coupled", "per-handle"):
                     fits[s].append((n, med(res[s], "cpu")))
                 measured[str(mesh)] = (n, h, med(res["coupled"], "cpu"), med(res["coupled"], "wall"))
+                # The reference of the accuracy goal: our per-handle solve at
+                # tol 1e-13 (KKT residual ~1e-13; untimed). igl.bbw is not
+                # it: at 28k it stops with a KKT residual of ~3e-6.
+                self.measure({"task": "bbw", "mesh": str(mesh), "handles": h, "side": "per-handle",
+                              "tol": 1e-13, "save": f"{tmp}/{label}-tight.npy"})
+                Wp, Wt = np.load(f"{tmp}/{label}-per-handle.npy"), np.load(f"{tmp}/{label}-tight.npy")
+                d = float(np.abs(Wp - Wt).max())
+                self.say(f"  max |W_per-handle - W_tight| = {d:.2e} (W_tight: per-handle at tol 1e-13)")
                 if have_igl and label != "108k":
-                    Wp, Wi = np.load(f"{tmp}/{label}-per-handle.npy"), np.load(f"{tmp}/{label}-igl.npy")
+                    Wi = np.load(f"{tmp}/{label}-igl.npy")
                     Wc = np.load(f"{tmp}/{label}-coupled.npy")
-                    d = float(np.abs(Wp - Wi).max())
-                    self.say(f"  max |W_per-handle - W_igl| = {d:.2e} (rows normalised on both sides); "
-                             f"max |W_coupled - W_igl| = {float(np.abs(Wc - Wi).max()):.2e}")
+                    self.say(f"  max |W_igl - W_tight| = {float(np.abs(Wi - Wt).max()):.2e}; "
+                             f"max |W_per-handle - W_igl| = {float(np.abs(Wp - Wi).max()):.2e} (rows normalised "
+                             f"on both sides); max |W_coupled - W_igl| = {float(np.abs(Wc - Wi).max()):.2e}")
                     g = med(res["igl"], "cpu")
                     self.say(f"  igl.bbw: cpu {g:.2f} s, wall {med(res['igl'], 'wall'):.2f} s; its KKT residual "
                              f"(max violation, scaled by diag Q) {res['igl'][-1]['kkt']:.1e}")
                     for s in ("coupled", "per-handle"):
                         o = med(res[s], "cpu")
+                        goal = GOAL_BBW[s]
                         self.row(f"bbw {s} vs igl.bbw (CPU)", label, tcell(res[s]), "igl " + tcell(res["igl"]),
                                  ratio_cell(res[s], res["igl"]),
-                                 f"≤ {GOAL_RATIO}" + ("; max|ΔW| ≤ 1e-5" if s == "per-handle" else ""),
-                                 o / g <= GOAL_RATIO and (s != "per-handle" or d <= 1e-5))
+                                 f"≤ {goal}" + ("; max|ΔW| to tight ≤ 1e-5" if s == "per-handle" else ""),
+                                 o / g <= goal and (s != "per-handle" or d <= 1e-5))
                 else:
                     for s in ("coupled", "per-handle"):
                         self.say(f"  ours {s}: cpu {med(res[s], 'cpu'):.2f} s, wall {med(res[s], 'wall'):.2f} s")

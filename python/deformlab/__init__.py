@@ -299,7 +299,7 @@ def fps(V: Any, F: Any, k: int, metric: Optional[str] = None, seed: Optional[int
     return _native.fps(V, _faces(F, "F", V.shape[0]), int(k), metric, seed)
 
 
-def bbw(V: Any, F: Any, handles: Any, mode: Optional[str] = None) -> np.ndarray:
+def bbw(V: Any, F: Any, handles: Any, mode: Optional[str] = None, tol: Optional[float] = None) -> np.ndarray:
     """Bounded biharmonic weights of point handles (BDT Eq. 1; Jacobson et al. 2011).
 
     Minimises ``Σ_k ½ w_kᵀ Q w_k`` with ``Q = L M⁻¹ L`` subject to
@@ -312,12 +312,16 @@ def bbw(V: Any, F: Any, handles: Any, mode: Optional[str] = None) -> np.ndarray:
     * ``"coupled"``: Eq. 1 as written, bounds and partition of unity
       ``Σ_k w_k = 1`` in one problem.
 
+    ``tol`` is the active-set tolerance of that mode, in weight units
+    (``None``: the library's, 1e-10 per-handle and 1e-8 coupled, as in
+    ``deformlab weights --tol`` / ``--coupled-tol``); range 1e-15 to 1e-3.
+
     Returns float64 ``(n, len(handles))``; handles must be distinct vertices.
     """
     V = _vertices(V, "V")
     F = _faces(F, "F", V.shape[0])
     h = _index_list(np.atleast_1d(handles), "handles", V.shape[0])
-    return _native.bbw(V, F, h, mode)
+    return _native.bbw(V, F, h, mode, None if tol is None else float(tol))
 
 
 # ---------------------------------------------------------------------------

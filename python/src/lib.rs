@@ -28,7 +28,7 @@ use deformlab::methods::completion::{
     CompletionProblem, CompletionSolver, FbtOptions, FeatureOptions, PipelineKind, SolverKind,
 };
 use deformlab::methods::external::{register_callable, unregister_callable, CallInput, CallableFn};
-use deformlab::methods::spec::{Epsilon, MaxKeypoints, NCandidates};
+use deformlab::methods::spec::{BbwTolerance, Epsilon, MaxKeypoints, NCandidates};
 use deformlab::methods::{
     transfer_method, FbtRegistrar, KeypointSource, MethodKind, TargetCorrespondence, TargetPoints,
     TransferCase, TransferMethod,
@@ -437,15 +437,18 @@ fn fps<'py>(
     Ok(PyArray1::from_iter(py, s.into_iter().map(|i| i as i64)))
 }
 
-/// Bounded biharmonic weights (n × handles) for point handles.
+/// Bounded biharmonic weights (n × handles) for point handles; `tol` is the
+/// active-set tolerance of the chosen mode (`tol` of per-handle,
+/// `coupled_tol` of coupled; `None`: the library's).
 #[pyfunction]
-#[pyo3(signature = (v, f, handles, mode=None))]
+#[pyo3(signature = (v, f, handles, mode=None, tol=None))]
 fn bbw<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'_, f64>,
     f: PyReadonlyArray2<'_, i64>,
     handles: Vec<i64>,
     mode: Option<&str>,
+    tol: Option<f64>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let m = mesh("mesh", &v, &f)?;
     let h = indices("handles", &handles, m.n_vertices())?;
@@ -456,10 +459,17 @@ fn bbw<'py>(
     if let Some(d) = h.iter().find(|&&x| !seen.insert(x)) {
         return Err(value_err(format!("handles: vertex {d} is given twice")));
     }
-    let opts = match mode {
+    let mut opts = match mode {
         Some(s) => BbwOptions::with_mode(parse_enum::<WeightMode>("mode", s)?),
         None => BbwOptions::default(),
     };
+    if let Some(t) = tol {
+        let t = BbwTolerance::check(t).map_err(|e| value_err(format!("tol: {e}")))?;
+        match opts.mode {
+            WeightMode::Coupled => opts.coupled_tol = t,
+            _ => opts.tol = t,
+        }
+    }
     let w = py
         .detach(|| bounded_biharmonic_weights(&m, &h, &opts))
         .map_err(py_err)?;

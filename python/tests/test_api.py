@@ -97,6 +97,22 @@ def test_bbw_properties(mesh, mode):
     np.testing.assert_allclose(W[h], np.eye(5), atol=1e-12)
 
 
+def test_bbw_tol_is_the_modes_tolerance(mesh):
+    V, F = mesh
+    h = dl.fps(V, F, 5, seed=1)
+    for mode in ("per-handle", "coupled"):
+        W = dl.bbw(V, F, h, mode=mode)
+        tight = dl.bbw(V, F, h, mode=mode, tol=1e-13)
+        loose = dl.bbw(V, F, h, mode=mode, tol=1e-3)
+        # The default is within 1e-5 of a tight solve; a loose one is not
+        # the same solve (the keyword reaches the solver).
+        assert np.abs(W - tight).max() <= 1e-5
+        assert np.abs(loose - tight).max() > np.abs(W - tight).max()
+    for bad in (0.0, -1e-8, 1.0, float("nan")):
+        with pytest.raises(ValueError, match="tol"):
+            dl.bbw(V, F, h, tol=bad)
+
+
 def test_select_keypoints_shapes(small_set):
     V, F = small_set["V"], small_set["F"]
     r = dl.select_keypoints((V[0][0], F), V[0][1:], n_candidates=30)
