@@ -103,11 +103,12 @@
 //! to beat it. PerHandle's weights before normalisation differ from
 //! libigl's by at most 3.6e-6 (2.7e-7 with `tol = 1e-11`), and the summed
 //! energies agree to 3e-9 relative (scratch comparison outside the
-//! repository). With 6 FPS handles the normalised weights differ by
-//! 3.4e-4 on FAUST and 1.4e-3 on TOSCA cat0 (`results/bench/`): there the
-//! per-vertex stopping test of [`BbwOptions::tol`] leaves bands with small
-//! optimal weights at the bound, and libigl's solution is the closer one to
-//! a 1e-13 solve. Coupled at 2.2–2.7 s per handle (wall, load 3.8) is inside
+//! repository). With 6 FPS handles the normalised weights differed by
+//! 3.4e-4 on FAUST at the former `tol = 1e-8` (`results/bench/`): the
+//! per-vertex stopping test of [`BbwOptions::tol`] left bands with small
+//! optimal weights at the bound. At today's 1e-10 they are within 9.1e-7
+//! of a 1e-13 solve on FAUST and 5.3e-7 on TOSCA cat0, where libigl's are
+//! 1.6e-3 from it (its KKT residual 2.8e-6; 2026-12-05). Coupled at 2.2–2.7 s per handle (wall, load 3.8) is inside
 //! BDT's Table 1 range (0.45–4.2 s per handle, smaller meshes), not under
 //! heavier load.
 

@@ -243,8 +243,8 @@ pub struct KeypointOptions {
     /// `B`. Default: [`WeightMode::PerHandle`](crate::skin::bbw::WeightMode::PerHandle) — each weight function
     /// solved with its bounds, rows normalised to sum to one afterwards (the
     /// practice of Jacobson et al. 2011, BDT's ref. [5], and of libigl's
-    /// `bbw`, whose per-handle weights ours match to 3.6e-6 with 10 FPS
-    /// handles on FAUST, 3.4e-4 with 6, see [`BbwOptions::tol`]): bounds,
+    /// `bbw`, whose per-handle weights ours match to 9.1e-7 with 6 FPS
+    /// handles on FAUST at the default tolerance, see [`BbwOptions::tol`]): bounds,
     /// interpolation and partition of unity hold, but the weights are not
     /// the minimiser of BDT Eq. 1. [`WeightMode::Coupled`](crate::skin::bbw::WeightMode::Coupled) solves Eq. 1 as
     /// written (config key `weights = "coupled"`, CLI `--weights coupled`).
