@@ -635,6 +635,19 @@ fn bench_skin_table() {
     println!("{}", deformlab::bench::skin::run(quick).unwrap());
 }
 
+/// The rest pose of the synthetic subject at `resolution`.
+fn synthetic_rest(resolution: u32) -> Mesh {
+    let mut set = deformlab::data::synthetic::FaustStyle {
+        subjects: 1,
+        poses: 1,
+        resolution,
+        ..Default::default()
+    }
+    .generate()
+    .unwrap();
+    set.meshes.swap_remove(0).swap_remove(0)
+}
+
 /// Largest |ΔW| between the default per-handle weights and a tight solve
 /// (`tol = 1e-13`), and the same for `tol = 1e-8` (the default until
 /// 2026-12-05), for 6 FPS handles on `mesh`.
@@ -666,15 +679,7 @@ fn per_handle_gap_to_tight(mesh: &Mesh) -> (f64, f64) {
 /// discriminates; on the synthetic subject it runs without the data.
 #[test]
 fn default_per_handle_weights_are_within_1e_5_of_a_tight_solve() {
-    let set = deformlab::data::synthetic::FaustStyle {
-        subjects: 1,
-        poses: 1,
-        resolution: 2,
-        ..Default::default()
-    }
-    .generate()
-    .unwrap();
-    let (d, old) = per_handle_gap_to_tight(&set.meshes[0][0]);
+    let (d, old) = per_handle_gap_to_tight(&synthetic_rest(2));
     eprintln!("synthetic: default {d:.2e}, tol 1e-8 {old:.2e} from a 1e-13 solve");
     assert!(d <= 1e-5, "synthetic: {d:.2e} from a tight solve");
     let Some(dir) = deformlab::data::shared_data_or_skip(
@@ -700,15 +705,7 @@ fn default_per_handle_weights_are_within_1e_5_of_a_tight_solve() {
 /// far inside the optimum's support.
 #[test]
 fn start_release_changes_only_the_start() {
-    let set = deformlab::data::synthetic::FaustStyle {
-        subjects: 1,
-        poses: 1,
-        resolution: 3,
-        ..Default::default()
-    }
-    .generate()
-    .unwrap();
-    let mesh = &set.meshes[0][0];
+    let mesh = &synthetic_rest(3);
     let handles =
         deformlab::ops::farthest_point_sampling(mesh, 6, deformlab::ops::FpsMetric::Euclidean, 0)
             .unwrap();
