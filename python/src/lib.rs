@@ -464,11 +464,7 @@ fn bbw<'py>(
         None => BbwOptions::default(),
     };
     if let Some(t) = tol {
-        let t = BbwTolerance::check(t).map_err(|e| value_err(format!("tol: {e}")))?;
-        match opts.mode {
-            WeightMode::Coupled => opts.coupled_tol = t,
-            _ => opts.tol = t,
-        }
+        opts.set_mode_tol(BbwTolerance::check(t).map_err(|e| value_err(format!("tol: {e}")))?);
     }
     let w = py
         .detach(|| bounded_biharmonic_weights(&m, &h, &opts))

@@ -163,10 +163,7 @@ pub fn run(a: WeightsArgs) -> Result<ExitCode> {
         "mode: {:?}, max_iter {}, tol {:.0e}",
         opts.mode,
         opts.max_iter,
-        match opts.mode {
-            WeightMode::Coupled => opts.coupled_tol,
-            _ => opts.tol,
-        }
+        opts.mode_tol()
     );
     println!(
         "precompute (L, M, Q): {:.2} s wall, {}",

@@ -108,9 +108,9 @@
 //! per-vertex stopping test of [`BbwOptions::tol`] left bands with small
 //! optimal weights at the bound. At today's 1e-10 they are within 9.1e-7
 //! of a 1e-13 solve on FAUST and 5.3e-7 on TOSCA cat0, where libigl's are
-//! 1.6e-3 from it (its KKT residual 2.8e-6; 2026-12-05). Coupled at 2.2–2.7 s per handle (wall, load 3.8) is inside
-//! BDT's Table 1 range (0.45–4.2 s per handle, smaller meshes), not under
-//! heavier load.
+//! 1.6e-3 from it (its KKT residual 2.8e-6; 2026-12-05). Coupled at
+//! 2.2–2.7 s per handle (wall, load 3.8) is inside BDT's Table 1 range
+//! (0.45–4.2 s per handle, smaller meshes), not under heavier load.
 
 use std::time::Instant;
 
@@ -295,6 +295,24 @@ impl Default for BbwOptions {
 }
 
 impl BbwOptions {
+    /// The active-set tolerance that [`BbwOptions::mode`] uses:
+    /// [`BbwOptions::coupled_tol`] for Coupled, [`BbwOptions::tol`]
+    /// otherwise.
+    pub fn mode_tol(&self) -> f64 {
+        match self.mode {
+            WeightMode::Coupled => self.coupled_tol,
+            _ => self.tol,
+        }
+    }
+
+    /// Sets the tolerance [`BbwOptions::mode_tol`] reads.
+    pub fn set_mode_tol(&mut self, tol: f64) {
+        match self.mode {
+            WeightMode::Coupled => self.coupled_tol = tol,
+            _ => self.tol = tol,
+        }
+    }
+
     /// Defaults with `mode`.
     pub fn with_mode(mode: WeightMode) -> Self {
         BbwOptions {
@@ -595,14 +613,14 @@ impl Biharmonic {
             }
             WeightMode::PerHandle => {
                 let (raw, unbounded) =
-                    per_handle_raw(&qff, &b, opts, opts.tol, &starts, &mut report)?;
+                    per_handle_raw(&qff, &b, opts, opts.mode_tol(), &starts, &mut report)?;
                 let wf = normalise_rows(&raw, &unbounded);
                 report.unnormalized = Some(raw);
                 wf
             }
             WeightMode::Coupled => {
                 let (raw, unbounded) =
-                    per_handle_raw(&qff, &b, opts, opts.coupled_tol, &starts, &mut report)?;
+                    per_handle_raw(&qff, &b, opts, opts.mode_tol(), &starts, &mut report)?;
                 let mut x0 = normalise_rows(&raw, &unbounded);
                 report.unnormalized = Some(raw);
                 drop_small_entries(&mut x0, opts.coupled_support_threshold);
@@ -612,7 +630,7 @@ impl Biharmonic {
                     &b,
                     &x0,
                     opts.max_iter,
-                    opts.coupled_tol,
+                    opts.mode_tol(),
                     opts.coupled_local_hops,
                 )?;
                 report.seconds[2] = clock.elapsed().as_secs_f64();
