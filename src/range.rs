@@ -246,6 +246,12 @@ bounds!(
     ActiveSetTol: 1e-15, 1e-3
 );
 bounds!(
+    /// `[0, 1e-2]`: the step test of the coupled weights' support iteration
+    /// in weight units (0 = off; above 1e-2 it would stop before the
+    /// supports took shape).
+    StepTol: 0.0, 1e-2
+);
+bounds!(
     /// `[0.3, 2]`: the vertex ratio of the synthetic remesh.
     RemeshRatio: 0.3, 2.0
 );

@@ -252,10 +252,14 @@ fn help_prints_the_library_defaults() {
         assert!(weights.contains(&s), "weights --help lacks {s}:\n{weights}");
     }
     assert!(!weights.contains("library's, 200]"), "{weights}");
-    // Each local refinement option's own help names its own default.
+    // Each local refinement and tolerance option's own help names its own
+    // default.
     for (flag, want) in [
-        ("--local-hops", b.local_hops),
-        ("--coupled-local-hops", b.coupled_local_hops),
+        ("--local-hops", b.local_hops.to_string()),
+        ("--coupled-local-hops", b.coupled_local_hops.to_string()),
+        ("--tol", format!("{:e}", b.tol)),
+        ("--coupled-tol", format!("{:e}", b.coupled_tol)),
+        ("--coupled-step-tol", format!("{:e}", b.coupled_step_tol)),
     ] {
         let at = weights
             .find(&format!("{flag} <"))

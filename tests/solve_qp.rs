@@ -4,7 +4,9 @@
 //! (its certified duality gap).
 //! `cargo test --release --test solve_qp`
 
-use deformlab::solve::qp::{simplex_rows_qp, AdmmOptions, BoxQp, RowAdmm, RowConstraint};
+use deformlab::solve::qp::{
+    simplex_rows_qp, AdmmOptions, BoxQp, RowAdmm, RowConstraint, SimplexQpOptions,
+};
 use deformlab::solve::{sparse_from_triplets, SparseMatrix};
 use nalgebra::{DMatrix, DVector};
 use proptest::prelude::*;
@@ -163,7 +165,8 @@ proptest! {
         let (a, ad) = random_spd(n, seed);
         let b = DMatrix::from_column_slice(n, m, &random_vec(n * m, scale, seed));
         let x0 = DMatrix::from_element(n, m, 1.0 / m as f64);
-        let s = simplex_rows_qp(&a, &b, &x0, 200, 1e-10, hops).unwrap();
+        let opts = SimplexQpOptions { local_hops: hops, ..SimplexQpOptions::new(200, 1e-10) };
+        let s = simplex_rows_qp(&a, &b, &x0, &opts).unwrap();
         prop_assert!(s.converged);
         let g = &ad * &s.x + &b;
         let mut worst = 0.0f64;
@@ -179,6 +182,33 @@ proptest! {
         }
         prop_assert!(worst < 1e-8, "KKT residual {worst}");
         prop_assert!((s.kkt_residual - worst).abs() < 1e-9);
+        prop_assert!(!s.stopped_on_step, "no step test was asked for");
+    }
+
+    /// The step test (`step_tol > 0`): the result stays on the simplex row
+    /// by row; a stop on the step test follows a global iteration that moved
+    /// no entry by more than `step_tol`; any other stop is the KKT one.
+    #[test]
+    fn simplex_step_test_keeps_rows_feasible(n in 2usize..40, m in 2usize..6,
+                                             seed in any::<u64>(), scale in 0.1f64..10.0,
+                                             log_step in -9.0f64..-2.0) {
+        let (a, _) = random_spd(n, seed);
+        let b = DMatrix::from_column_slice(n, m, &random_vec(n * m, scale, seed ^ 1));
+        let x0 = DMatrix::from_element(n, m, 1.0 / m as f64);
+        let step_tol = 10f64.powf(log_step);
+        let opts = SimplexQpOptions { step_tol, ..SimplexQpOptions::new(200, 1e-10) };
+        let s = simplex_rows_qp(&a, &b, &x0, &opts).unwrap();
+        prop_assert!(s.converged);
+        for i in 0..n {
+            prop_assert!((s.x.row(i).sum() - 1.0).abs() < 1e-12);
+            prop_assert!(s.x.row(i).iter().all(|&v| v >= 0.0));
+        }
+        if s.stopped_on_step {
+            prop_assert!(s.last_step <= step_tol, "{} > {step_tol}", s.last_step);
+            prop_assert!(s.iterations >= 2);
+        } else {
+            prop_assert!(s.kkt_residual < 1e-8, "KKT residual {}", s.kkt_residual);
+        }
     }
 }
 
@@ -317,7 +347,8 @@ fn active_set_agrees_with_admm() {
                     x
                 }
                 RowConstraint::Simplex => {
-                    let s = simplex_rows_qp(&a, &b, &x0, 200, 1e-12, 0).unwrap();
+                    let s =
+                        simplex_rows_qp(&a, &b, &x0, &SimplexQpOptions::new(200, 1e-12)).unwrap();
                     assert!(s.converged);
                     s.x
                 }

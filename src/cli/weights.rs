@@ -77,6 +77,12 @@ pub struct WeightsArgs {
         "Active-set tolerance of the coupled weights (both stages), 1e-15..=1e-3",
         format!("{:e}", BbwOptions::default().coupled_tol)))]
     pub coupled_tol: Option<f64>,
+    /// Help text (with the library's default) in `help` below.
+    #[arg(long, value_parser = StepTol::parse, help = super::keypoints::default_help(
+        "Step test of the coupled support iteration: stop once an iteration moves no weight \
+         by more than this, 0..=1e-2 (0 = stop only when the supports no longer change)",
+        format!("{:e}", BbwOptions::default().coupled_step_tol)))]
+    pub coupled_step_tol: Option<f64>,
     /// Write the weights (n × handles) as CSV.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -94,6 +100,7 @@ pub struct WeightsArgs {
 type Handles = deformlab::experiment::range::Int<1, 1000>;
 type MaxIter = deformlab::experiment::range::Int<1, 100_000>;
 type Tol = deformlab::methods::spec::BbwTolerance;
+type StepTol = deformlab::methods::spec::BbwStepTolerance;
 type Hops = deformlab::experiment::range::Int<0, 64>;
 
 /// Handles sampled when neither `--handles` nor `--handle-vertices` is given.
@@ -144,6 +151,7 @@ pub fn run(a: WeightsArgs) -> Result<ExitCode> {
         coupled_local_hops: a.coupled_local_hops.unwrap_or(d.coupled_local_hops),
         tol: a.tol.unwrap_or(d.tol),
         coupled_tol: a.coupled_tol.unwrap_or(d.coupled_tol),
+        coupled_step_tol: a.coupled_step_tol.unwrap_or(d.coupled_step_tol),
         ..d
     };
     let progress = super::progress::for_command("weights");
@@ -187,8 +195,17 @@ pub fn run(a: WeightsArgs) -> Result<ExitCode> {
     }
     if opts.mode == WeightMode::Coupled {
         println!(
-            "coupled support iterations: {} (last system {} unknowns)",
-            report.coupled_iterations, report.coupled_unknowns
+            "coupled support iterations: {} (last system {} unknowns; stopped on {})",
+            report.coupled_iterations,
+            report.coupled_unknowns,
+            if report.coupled_stopped_on_step {
+                format!(
+                    "the step test, no weight moved by more than {:.0e}",
+                    opts.coupled_step_tol
+                )
+            } else {
+                "unchanged supports".to_string()
+            }
         );
     }
     println!(

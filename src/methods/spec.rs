@@ -22,6 +22,8 @@ pub type Epsilon = Real<NonNegative>;
 /// Active-set tolerance of bounded biharmonic weights (`deformlab weights
 /// --tol`, `--coupled-tol`; Python `bbw(tol=…)`).
 pub type BbwTolerance = Real<crate::range::ActiveSetTol>;
+/// Step test of the coupled weights (`deformlab weights --coupled-step-tol`).
+pub type BbwStepTolerance = Real<crate::range::StepTol>;
 
 /// What an FBT method measures (see the module docs).
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]

@@ -31,4 +31,6 @@ mod simplex;
 pub use admm::{AdmmOptions, AdmmSolution, RowAdmm, RowConstraint, ADMM_COLUMN_BLOCK};
 pub use box_qp::{BoxQp, BoxQpSolution};
 pub use common::{project_to_simplex, sym_matvec_add};
-pub use simplex::{simplex_rows_kkt_residual, simplex_rows_qp, SimplexQpSolution};
+pub use simplex::{
+    simplex_rows_kkt_residual, simplex_rows_qp, SimplexQpOptions, SimplexQpSolution,
+};

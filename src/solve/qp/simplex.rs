@@ -12,6 +12,38 @@ use super::ordered::{FactorBuffers, Ordered, OrderedCholesky, UpperCsc};
 use crate::solve::SparseMatrix;
 use crate::{Error, Result};
 
+/// Options of [`simplex_rows_qp`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SimplexQpOptions {
+    /// Global support iterations allowed.
+    pub max_iter: usize,
+    /// Support test tolerance, per row and scale-free (see
+    /// [`simplex_rows_qp`]).
+    pub tol: f64,
+    /// Local refinement: steps of `A`'s graph around the changed rows (0 =
+    /// off; see [`simplex_rows_qp`]).
+    pub local_hops: usize,
+    /// Step test: the iteration also stops when a global iteration moved no
+    /// entry of `X` by more than this from the previous global iteration's
+    /// solution (0 = off: stop only when the supports no longer change).
+    /// The supports then still change, but only where the multipliers sit
+    /// at the tolerance, and by less than `step_tol` in every entry.
+    pub step_tol: f64,
+}
+
+impl SimplexQpOptions {
+    /// `max_iter` and `tol`, no local refinement, no step test: the support
+    /// iteration stops only when the supports no longer change.
+    pub fn new(max_iter: usize, tol: f64) -> Self {
+        SimplexQpOptions {
+            max_iter,
+            tol,
+            local_hops: 0,
+            step_tol: 0.0,
+        }
+    }
+}
+
 /// Result of [`simplex_rows_qp`].
 #[derive(Clone, Debug)]
 pub struct SimplexQpSolution {
@@ -25,9 +57,16 @@ pub struct SimplexQpSolution {
     pub local_iterations: usize,
     /// Size of the last reduced system.
     pub n_variables: usize,
-    /// Whether the supports settled within the iteration limit (if not, `x`
-    /// is the last iterate projected onto the simplex row by row).
+    /// Whether the iteration stopped within the iteration limit, by either
+    /// test (if not, `x` is the last iterate projected onto the simplex row
+    /// by row).
     pub converged: bool,
+    /// Whether it stopped on the step test ([`SimplexQpOptions::step_tol`])
+    /// rather than on unchanged supports.
+    pub stopped_on_step: bool,
+    /// Largest change of an entry of `X` between the last two global
+    /// iterations (infinite after a single one).
+    pub last_step: f64,
     /// KKT residual of `x` in units of `x` (scale-free, per row `i`): with
     /// `G = A X + B` and `ν_i = G_ip` at the row's largest entry `p`, the
     /// largest `|G_ik − ν_i| / A_ii` over `k` with `X_ik > 0` and the largest
@@ -266,18 +305,31 @@ fn simplex_step(
 /// the pivot to `k`) is below `−tol · A_ii`. When the supports no longer
 /// change the KKT conditions hold to `tol` (per-row, scale-free) and the
 /// result is the optimum; entries in `[−tol, 0)` are set to 0 and the row
-/// rescaled. If `max_iter` is reached first, the last iterate is projected
-/// onto the simplex row by row and returned with `converged = false`.
+/// rescaled. With [`SimplexQpOptions::step_tol`] > 0 it also stops when a
+/// global iteration moved no entry by more than `step_tol` (the last solve's
+/// negative entries, all above `−(tol + step_tol)`, are then set to 0 and the row
+/// rescaled the same way). If `max_iter` is reached first, the last
+/// iterate is projected onto the simplex row by row and returned with
+/// `converged = false`.
+///
+/// With `local_hops > 0`, every global iteration that changed a support is
+/// followed by local iterations on the rows within `local_hops` steps of
+/// `A`'s graph of the changed rows (the others frozen) until their supports
+/// settle; only the path changes, the stopping tests are the global ones.
 ///
 /// `x0` (n × m) seeds the supports (`x0_ik > 0`; the largest entry if none).
 pub fn simplex_rows_qp(
     a: &SparseMatrix,
     b: &DMatrix<f64>,
     x0: &DMatrix<f64>,
-    max_iter: usize,
-    tol: f64,
-    local_hops: usize,
+    opts: &SimplexQpOptions,
 ) -> Result<SimplexQpSolution> {
+    let SimplexQpOptions {
+        max_iter,
+        tol,
+        local_hops,
+        step_tol,
+    } = *opts;
     let n = a.nrows();
     let m = b.ncols();
     if a.ncols() != n || b.nrows() != n || x0.shape() != (n, m) || m == 0 {
@@ -327,6 +379,10 @@ pub fn simplex_rows_qp(
     let mut changed = Vec::new();
     let mut region = vec![false; n];
     let mut local_iterations = 0;
+    let mut stopped_on_step = false;
+    let mut last_step = f64::INFINITY;
+    // The previous global iteration's solution (for the step test).
+    let mut previous: Option<DMatrix<f64>> = None;
     for it in 1..=max_iter.max(1) {
         iterations = it;
         crate::solve::progress::update(
@@ -339,6 +395,23 @@ pub fn simplex_rows_qp(
         if changed.is_empty() {
             converged = true;
             break;
+        }
+        if step_tol > 0.0 {
+            if let Some(prev) = &previous {
+                last_step =
+                    st.x.iter()
+                        .zip(prev.iter())
+                        .fold(0.0f64, |s, (a, b)| s.max((a - b).abs()));
+                if last_step <= step_tol {
+                    converged = true;
+                    stopped_on_step = true;
+                    break;
+                }
+            }
+            match &mut previous {
+                Some(prev) => prev.copy_from(&st.x),
+                None => previous = Some(st.x.clone()),
+            }
         }
         if local_hops > 0 && grow_region(a, local_hops, &changed, &mut region) {
             for _ in 0..LOCAL_MAX_ITER {
@@ -390,6 +463,8 @@ pub fn simplex_rows_qp(
         local_iterations,
         n_variables: nv,
         converged,
+        stopped_on_step,
+        last_step,
         kkt_residual,
     })
 }
