@@ -45,7 +45,8 @@ synthetic subject of `deformlab gen --resolution 4` (27k for key points:
 `--resolution 3`; generated once into `--gen-dir`). Every single-thread
 measurement runs in a fresh subprocess whose environment sets
 RAYON_NUM_THREADS, OMP_NUM_THREADS, OPENBLAS_NUM_THREADS and
-MKL_NUM_THREADS to 1 before numpy, scipy, igl or deformlab are imported;
+MKL_NUM_THREADS to 1 before numpy, scipy, igl or deformlab are imported,
+and which is pinned to one core (libigl's `bbw` starts threads of its own);
 ours and the anchor alternate (ours, anchor, ours, anchor, ...) and the
 medians of `--reps` runs (`--reps-large` at 28k and above, except key
 point selection at 27k, which gets `--reps`) of wall and CPU time
@@ -100,6 +101,16 @@ SIGMA = -1e-8  # shift of scipy's shift-invert (L - σM is positive definite)
 
 # ---------------------------------------------------------------------------
 # Worker: one measurement in this (fresh, single-thread) process.
+
+
+def pin_if_single():
+    """A single-thread measurement (RAYON_NUM_THREADS=1) runs on one core:
+    the thread variables do not reach every library (libigl's `bbw` starts
+    its own std::threads, measured at 66.8 s CPU over 43.0 s wall at 28k),
+    so the worker is pinned to the first core it may use before anything is
+    imported, and every thread it starts inherits that."""
+    if os.environ.get("RAYON_NUM_THREADS") == "1" and hasattr(os, "sched_setaffinity"):
+        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
 
 
 def worker(spec: dict) -> dict:
@@ -775,6 +786,7 @@ def compare_cases(a, b):
 
 def main() -> int:
     if len(sys.argv) == 3 and sys.argv[1] == "--worker":
+        pin_if_single()
         print(json.dumps(worker(json.loads(sys.argv[2]))))
         return 0
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0],

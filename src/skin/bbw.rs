@@ -226,7 +226,8 @@ pub struct BbwOptions {
     /// by less than 1e-6, while the tolerance itself leaves the weights
     /// 1e-4 from the optimum. Measured 2026-12-06 (6 FPS handles, one
     /// thread; support iterations, CPU s of the whole solve, max |ΔW| to
-    /// the solve without the test and to a 1e-13 solve):
+    /// the solve without the test and to a 1e-13 solve; one run each
+    /// beside another one-thread job):
     ///
     /// | mesh | 0 (before) | 1e-7 | **1e-6** | 1e-5 |
     /// |---|---|---|---|---|
