@@ -648,6 +648,16 @@ fn synthetic_rest(resolution: u32) -> Mesh {
     set.meshes.swap_remove(0).swap_remove(0)
 }
 
+/// FAUST `tr_reg_001` from the shared data, or `None` (the FAUST part of
+/// `test` is skipped, saying why) when the data is not there.
+fn faust_001_or_skip(test: &str) -> Option<Mesh> {
+    let path = deformlab::data::shared_data_or_skip(
+        "faust/tr_reg_001.ply",
+        &format!("{test} (FAUST part)"),
+    )?;
+    Some(deformlab::mesh::io::read_mesh(&path).unwrap())
+}
+
 /// Largest |ΔW| between the default per-handle weights and a tight solve
 /// (`tol = 1e-13`), and the same for the defaults until 2026-12-05 (`tol =
 /// 1e-8`, no released start), for 6 FPS handles on `mesh`.
@@ -694,13 +704,11 @@ fn default_per_handle_weights_are_within_1e_5_of_a_tight_solve() {
     let (d, old) = per_handle_gap_to_tight(&synthetic_rest(2));
     eprintln!("synthetic: default {d:.2e}, before (tol 1e-8, no released start) {old:.2e} from a 1e-13 solve");
     assert!(d <= 1e-5, "synthetic: {d:.2e} from a tight solve");
-    let Some(dir) = deformlab::data::shared_data_or_skip(
-        "faust/tr_reg_001.ply",
-        "default_per_handle_weights_are_within_1e_5_of_a_tight_solve (FAUST part)",
-    ) else {
+    let Some(mesh) =
+        faust_001_or_skip("default_per_handle_weights_are_within_1e_5_of_a_tight_solve")
+    else {
         return;
     };
-    let mesh = deformlab::mesh::io::read_mesh(&dir).unwrap();
     let (d, old) = per_handle_gap_to_tight(&mesh);
     eprintln!("FAUST tr_reg_001: default {d:.2e}, before (tol 1e-8, no released start) {old:.2e} from a 1e-13 solve");
     assert!(d <= 1e-5, "FAUST: {d:.2e} from a tight solve");
@@ -717,22 +725,15 @@ fn default_per_handle_weights_are_within_1e_5_of_a_tight_solve() {
 /// far inside the optimum's support.
 #[test]
 fn start_release_changes_only_the_start() {
-    let mesh = &synthetic_rest(3);
-    let handles =
-        deformlab::ops::farthest_point_sampling(mesh, 6, deformlab::ops::FpsMetric::Euclidean, 0)
-            .unwrap();
-    let bh = Biharmonic::new(mesh).unwrap();
-    let d = BbwOptions::with_mode(WeightMode::PerHandle);
-    assert!(d.start_release_hops > 0);
-    let fixed = BbwOptions {
-        start_release_hops: 0,
-        ..d
-    };
-    let a = bh.weights_with_report(&handles, &fixed).unwrap();
-    let b = bh.weights_with_report(&handles, &d).unwrap();
+    let (bh, handles, a, b) = changed_and_default(&synthetic_rest(3), WeightMode::PerHandle, |o| {
+        assert!(o.start_release_hops > 0);
+        o.start_release_hops = 0;
+    });
     eprintln!(
         "numeric factorisations: {} without the release, {} with {} hops",
-        a.factorizations, b.factorizations, d.start_release_hops
+        a.factorizations,
+        b.factorizations,
+        BbwOptions::default().start_release_hops
     );
     assert!(b.factorizations < a.factorizations);
     let diff = (&a.weights - &b.weights).abs().max();
@@ -741,24 +742,48 @@ fn start_release_changes_only_the_start() {
     assert!(r < 1e-8, "per-handle KKT residual {r:.2e}");
 }
 
-/// Coupled weights with the default step test and without it (stop only
-/// on unchanged supports), 6 FPS handles.
-fn coupled_with_and_without_step_test(mesh: &Mesh) -> (BbwReport, BbwReport, f64) {
+/// 6 FPS handles on `mesh` and the weights of `mode` with one option
+/// changed by `change` and with the defaults: (the precomputation, the
+/// handles, the changed report, the default report).
+fn changed_and_default(
+    mesh: &Mesh,
+    mode: WeightMode,
+    change: impl Fn(&mut BbwOptions),
+) -> (Biharmonic, Vec<usize>, BbwReport, BbwReport) {
     use deformlab::ops::{farthest_point_sampling, FpsMetric};
     let handles = farthest_point_sampling(mesh, 6, FpsMetric::Euclidean, 0).unwrap();
     let bh = Biharmonic::new(mesh).unwrap();
-    let d = BbwOptions::with_mode(WeightMode::Coupled);
-    assert!(d.coupled_step_tol > 0.0);
-    let plain = BbwOptions {
-        coupled_step_tol: 0.0,
-        ..d
-    };
-    let a = bh.weights_with_report(&handles, &plain).unwrap();
+    let d = BbwOptions::with_mode(mode);
+    let mut changed = d;
+    change(&mut changed);
+    let a = bh.weights_with_report(&handles, &changed).unwrap();
     let b = bh.weights_with_report(&handles, &d).unwrap();
+    (bh, handles, a, b)
+}
+
+/// Coupled weights without the step test (stop only on unchanged supports)
+/// and with the default one, 6 FPS handles on `mesh`; asserts that the test
+/// moved no weight by more than 1e-5 and left the coupled KKT residual
+/// below 1e-6.
+fn check_coupled_step_test(label: &str, mesh: &Mesh) -> (BbwReport, BbwReport) {
+    let (bh, handles, a, b) = changed_and_default(mesh, WeightMode::Coupled, |o| {
+        assert!(o.coupled_step_tol > 0.0);
+        o.coupled_step_tol = 0.0;
+    });
     assert!(!a.coupled_stopped_on_step);
     assert!(b.coupled_iterations <= a.coupled_iterations);
     let r = coupled_kkt(&bh, &b.weights, &handles);
-    (a, b, r)
+    let diff = (&a.weights - &b.weights).abs().max();
+    eprintln!(
+        "{label}: {} → {} support iterations, max |ΔW| {diff:.2e}, KKT {r:.2e}",
+        a.coupled_iterations, b.coupled_iterations
+    );
+    assert!(
+        diff <= 1e-5,
+        "{label}: the step test moved the weights by {diff:.2e}"
+    );
+    assert!(r < 1e-6, "{label}: coupled KKT residual {r:.2e}");
+    (a, b)
 }
 
 /// The step test of the coupled support iteration (`coupled_step_tol`)
@@ -770,35 +795,12 @@ fn coupled_with_and_without_step_test(mesh: &Mesh) -> (BbwReport, BbwReport, f64
 /// discriminates; the synthetic subject runs without the data.
 #[test]
 fn coupled_step_test_moves_the_weights_by_less_than_1e_5() {
-    let (a, b, r) = coupled_with_and_without_step_test(&synthetic_rest(2));
-    let diff = (&a.weights - &b.weights).abs().max();
-    eprintln!(
-        "synthetic: {} → {} support iterations, max |ΔW| {diff:.2e}, KKT {r:.2e}",
-        a.coupled_iterations, b.coupled_iterations
-    );
-    assert!(
-        diff <= 1e-5,
-        "synthetic: the step test moved the weights by {diff:.2e}"
-    );
-    assert!(r < 1e-6, "synthetic: coupled KKT residual {r:.2e}");
-    let Some(path) = deformlab::data::shared_data_or_skip(
-        "faust/tr_reg_001.ply",
-        "coupled_step_test_moves_the_weights_by_less_than_1e_5 (FAUST part)",
-    ) else {
+    check_coupled_step_test("synthetic", &synthetic_rest(2));
+    let Some(mesh) = faust_001_or_skip("coupled_step_test_moves_the_weights_by_less_than_1e_5")
+    else {
         return;
     };
-    let mesh = deformlab::mesh::io::read_mesh(&path).unwrap();
-    let (a, b, r) = coupled_with_and_without_step_test(&mesh);
-    let diff = (&a.weights - &b.weights).abs().max();
-    eprintln!(
-        "FAUST tr_reg_001: {} → {} support iterations, max |ΔW| {diff:.2e}, KKT {r:.2e}",
-        a.coupled_iterations, b.coupled_iterations
-    );
-    assert!(
-        diff <= 1e-5,
-        "FAUST: the step test moved the weights by {diff:.2e}"
-    );
-    assert!(r < 1e-6, "FAUST: coupled KKT residual {r:.2e}");
+    let (a, b) = check_coupled_step_test("FAUST tr_reg_001", &mesh);
     assert!(
         b.coupled_stopped_on_step && b.coupled_iterations + 5 < a.coupled_iterations,
         "FAUST no longer discriminates: {} → {} support iterations",
