@@ -306,9 +306,9 @@ fn simplex_step(
 /// change the KKT conditions hold to `tol` (per-row, scale-free) and the
 /// result is the optimum; entries in `[−tol, 0)` are set to 0 and the row
 /// rescaled. With [`SimplexQpOptions::step_tol`] > 0 it also stops when a
-/// global iteration moved no entry by more than `step_tol` (the last solve's
-/// negative entries, all above `−(tol + step_tol)`, are then set to 0 and the row
-/// rescaled the same way). If `max_iter` is reached first, the last
+/// global iteration moved no entry by more than `step_tol` (the last
+/// solve's negative entries are then set to 0 and the row rescaled the same
+/// way). If `max_iter` is reached first, the last
 /// iterate is projected onto the simplex row by row and returned with
 /// `converged = false`.
 ///
