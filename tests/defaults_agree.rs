@@ -260,6 +260,7 @@ fn help_prints_the_library_defaults() {
         ("--tol", format!("{:e}", b.tol)),
         ("--coupled-tol", format!("{:e}", b.coupled_tol)),
         ("--coupled-step-tol", format!("{:e}", b.coupled_step_tol)),
+        ("--coupled-admm-iter", b.coupled_admm_iter.to_string()),
     ] {
         let at = weights
             .find(&format!("{flag} <"))

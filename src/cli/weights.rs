@@ -83,6 +83,12 @@ pub struct WeightsArgs {
          by more than this, 0..=1e-2 (0 = stop only when the supports no longer change)",
         format!("{:e}", BbwOptions::default().coupled_step_tol)))]
     pub coupled_step_tol: Option<f64>,
+    /// Help text (with the library's default) in `help` below.
+    #[arg(long, value_parser = AdmmIter::parse, help = super::keypoints::default_help(
+        "ADMM iterations on the coupled problem that set the support iteration's start, \
+         0..=10000 (0 = start from the normalised per-handle weights; only the start changes)",
+        BbwOptions::default().coupled_admm_iter))]
+    pub coupled_admm_iter: Option<usize>,
     /// Write the weights (n × handles) as CSV.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -102,6 +108,7 @@ type MaxIter = deformlab::experiment::range::Int<1, 100_000>;
 type Tol = deformlab::methods::spec::BbwTolerance;
 type StepTol = deformlab::methods::spec::BbwStepTolerance;
 type Hops = deformlab::experiment::range::Int<0, 64>;
+type AdmmIter = deformlab::experiment::range::Int<0, 10_000>;
 
 /// Handles sampled when neither `--handles` nor `--handle-vertices` is given.
 pub const DEFAULT_HANDLES: usize = 10;
@@ -152,6 +159,7 @@ pub fn run(a: WeightsArgs) -> Result<ExitCode> {
         tol: a.tol.unwrap_or(d.tol),
         coupled_tol: a.coupled_tol.unwrap_or(d.coupled_tol),
         coupled_step_tol: a.coupled_step_tol.unwrap_or(d.coupled_step_tol),
+        coupled_admm_iter: a.coupled_admm_iter.unwrap_or(d.coupled_admm_iter),
         ..d
     };
     let progress = super::progress::for_command("weights");
@@ -195,8 +203,9 @@ pub fn run(a: WeightsArgs) -> Result<ExitCode> {
     }
     if opts.mode == WeightMode::Coupled {
         println!(
-            "coupled support iterations: {} (last system {} unknowns; stopped on {})",
+            "coupled support iterations: {} after {} ADMM iterations (last system {} unknowns; stopped on {})",
             report.coupled_iterations,
+            opts.coupled_admm_iter,
             report.coupled_unknowns,
             if report.coupled_stopped_on_step {
                 format!(
