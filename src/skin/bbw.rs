@@ -274,14 +274,17 @@ pub struct BbwOptions {
     /// | FAUST 092 | 3.84 | 3.09 | 2.81 | – | – |
     /// | FAUST 097 | 2.74 | 2.77 | 2.64 | – | – |
     /// | TOSCA cat0 (28k) | 62.6 (33) | – | 65.9 (36) | 66.9 (36) | 68.7 (37) with 200, 64.6 (35) with 600 |
+    /// | cat0, side by side (two pairs, cores swapped) | 66.6, 63.2 (33) | – | 73.4, 70.3 (36) | – | – |
     /// | synthetic 27k | 39.3 | – | 40.7 | – | – |
     /// | synthetic creature 0 (27k) | 37.6 | – | 38.3 | – | – |
     ///
     /// 20, the default: FAUST total 29.2 → 23.2 s (geometric mean of the
-    /// ratios 0.78), the 27k–28k meshes 2–5 % slower (more ADMM iterations
-    /// do not help there: their supports grow by a third during the support
-    /// iteration, further than ADMM moves them); over all 13 meshes the
-    /// geometric mean ratio is 0.83. The weights stay within the coupled
+    /// ratios 0.78), the 27k–28k meshes 2–11 % slower (cat0 side by side:
+    /// +11 %; more ADMM iterations do not help there: their supports grow
+    /// by a third during the support iteration, further than ADMM moves
+    /// them); over all 13 meshes the geometric mean ratio is 0.84. The
+    /// project's real benchmarks are FAUST-sized, hence 20; on meshes of
+    /// 27k vertices and more, 0 is about 10 % faster. The weights stay within the coupled
     /// tolerance's own gap: on FAUST 001 8.1e-5 from the start without
     /// ADMM and 1.6e-5 from a 1e-13 solve (the start without ADMM: 8.2e-5).
     pub coupled_admm_iter: usize,
