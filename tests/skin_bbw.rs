@@ -832,14 +832,7 @@ fn coupled_admm_start_changes_only_the_path() {
         for r in [&a, &b] {
             let k = coupled_kkt(&bh, &r.weights, &handles);
             assert!(k < 1e-6, "{label}: coupled KKT residual {k:.2e}");
-            for row in r.weights.row_iter() {
-                assert!(row.iter().all(|&v| (0.0..=1.0).contains(&v)));
-                assert!(
-                    (row.sum() - 1.0).abs() < 1e-12,
-                    "{label}: row sum {}",
-                    row.sum()
-                );
-            }
+            check_common(&r.weights, &handles, true, 1e-12);
         }
         eprintln!(
             "{label}: {} → {} support iterations with the ADMM start, max |ΔW| {diff:.2e}",

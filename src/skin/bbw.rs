@@ -44,8 +44,8 @@
 //!   of `Q_ff`. Started from the normalised PerHandle weights moved by
 //!   [`BbwOptions::coupled_admm_iter`] ADMM iterations on the coupled
 //!   problem, with entries ≤ [`BbwOptions::coupled_support_threshold`]
-//!   dropped (a support that is nearly right). Interpolation, bounds and partition of unity hold
-//!   exactly; optimality to the KKT tolerance [`BbwOptions::coupled_tol`],
+//!   dropped (a support that is nearly right). Interpolation, bounds and
+//!   partition of unity hold exactly; optimality to the KKT tolerance [`BbwOptions::coupled_tol`],
 //!   or the support iteration stops once a global iteration moves no weight
 //!   by more than [`BbwOptions::coupled_step_tol`].
 //!
@@ -125,8 +125,8 @@ use crate::ops::MassKind;
 use crate::ops::Operators;
 
 use crate::solve::qp::{
-    project_to_simplex, simplex_rows_qp, AdmmOptions, BoxQp, BoxQpSolution, RowAdmm, RowConstraint,
-    SimplexQpOptions,
+    project_to_simplex, simplex_rows_qp, AdmmOptions, AdmmSolution, BoxQp, BoxQpSolution, RowAdmm,
+    RowConstraint, SimplexQpOptions,
 };
 use crate::solve::{progress, sparse_from_triplets, SparseCholesky, SparseMatrix};
 use crate::{Error, Result};
@@ -284,8 +284,8 @@ pub struct BbwOptions {
     /// by a third during the support iteration, further than ADMM moves
     /// them); over all 13 meshes the geometric mean ratio is 0.84. The
     /// project's real benchmarks are FAUST-sized, hence 20; on meshes of
-    /// 27k vertices and more, 0 is about 10 % faster. The weights stay within the coupled
-    /// tolerance's own gap: on FAUST 001 8.1e-5 from the start without
+    /// 27k vertices and more, 0 is about 10 % faster. The weights stay
+    /// within the coupled tolerance's own gap: on FAUST 001 8.1e-5 from the start without
     /// ADMM and 1.6e-5 from a 1e-13 solve (the start without ADMM: 8.2e-5).
     pub coupled_admm_iter: usize,
     /// Optional ADMM warm start (box constraints, all handles at once, one
@@ -707,15 +707,8 @@ impl Biharmonic {
                 report.unnormalized = Some(raw);
                 let clock = Instant::now();
                 if opts.coupled_admm_iter > 0 {
-                    let admm = RowAdmm::new(&qff, &diagonal(&qff), RowConstraint::Simplex)?;
-                    let aopts = AdmmOptions {
-                        max_iter: opts.coupled_admm_iter,
-                        gap_tol: 0.0,
-                        ..opts.admm
-                    };
-                    let s = admm.solve(&b, &x0, &aopts)?;
-                    report.factorizations += s.factorizations;
-                    x0 = s.x;
+                    let (c, k) = (RowConstraint::Simplex, opts.coupled_admm_iter);
+                    x0 = admm_iterate(&qff, &b, &x0, c, k, opts, &mut report)?.x;
                 }
                 drop_small_entries(&mut x0, opts.coupled_support_threshold);
                 let s = simplex_rows_qp(
@@ -788,15 +781,8 @@ fn per_handle_raw(
     // Optional warm start: ADMM iterations on all handles at once
     // (box constraints, one factorisation of Q_ff + ρ diag Q_ff).
     let mut warm = if opts.admm.max_iter > 0 {
-        let mf = diagonal(qff);
-        let admm = RowAdmm::new(qff, &mf, RowConstraint::Box(0.0, 1.0))?;
-        let aopts = AdmmOptions {
-            gap_tol: 0.0,
-            ..opts.admm
-        };
-        let s = admm.solve(b, &unbounded, &aopts)?;
-        report.factorizations += s.factorizations;
-        s.pre_projection
+        let box01 = RowConstraint::Box(0.0, 1.0);
+        admm_iterate(qff, b, &unbounded, box01, opts.admm.max_iter, opts, report)?.pre_projection
     } else {
         unbounded.clone()
     };
@@ -855,6 +841,30 @@ fn per_handle_raw(
     }
     report.seconds[1] = clock.elapsed().as_secs_f64();
     Ok((wf, unbounded))
+}
+
+/// `max_iter` ADMM iterations (`D = diag Q_ff`, `gap_tol = 0`, the other
+/// settings from [`BbwOptions::admm`]) on the rows of `x0` under
+/// `constraint`, counting the factorisations in `report`: the warm starts
+/// of the per-handle active sets and of the coupled support iteration.
+fn admm_iterate(
+    qff: &SparseMatrix,
+    b: &DMatrix<f64>,
+    x0: &DMatrix<f64>,
+    constraint: RowConstraint,
+    max_iter: usize,
+    opts: &BbwOptions,
+    report: &mut BbwReport,
+) -> Result<AdmmSolution> {
+    let admm = RowAdmm::new(qff, &diagonal(qff), constraint)?;
+    let aopts = AdmmOptions {
+        max_iter,
+        gap_tol: 0.0,
+        ..opts.admm
+    };
+    let s = admm.solve(b, x0, &aopts)?;
+    report.factorizations += s.factorizations;
+    Ok(s)
 }
 
 /// Moves every vertex of a warm start column that is below the lower
